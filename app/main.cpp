@@ -1,0 +1,58 @@
+// The goo command line.
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include <iostream>
+
+#include "app/info_command.h"
+#include "core/error.h"
+#include "core/log.h"
+
+#ifndef GOO_VERSION
+#error "GOO_VERSION must be defined by the build"
+#endif
+
+namespace {
+
+/// Exit codes: 0 success, 1 internal failure, 2 bad input or usage.
+constexpr int kExitInternal = 1;
+constexpr int kExitBadInput = 2;
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"goo: viscoelastic and viscoplastic materials with thin features", "goo"};
+  app.set_version_flag("--version", std::string("goo ") + GOO_VERSION);
+  app.require_subcommand(0, 1);
+
+  std::string mesh_path;
+  bool json = false;
+  CLI::App* info = app.add_subcommand("info", "Describe a surface mesh (OFF, OBJ, PLY, STL) and check it can be simulated");
+  info->add_option("MESH", mesh_path, "Surface mesh file")->required();
+  info->add_flag("--json", json, "Print the report as JSON");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return kExitBadInput;
+  }
+
+  try {
+    if (info->parsed()) return goo::app::run_info(mesh_path, json, std::cout);
+    std::cout << app.help();
+    return 0;
+  } catch (const goo::Error& e) {
+    std::cout.flush();
+    fmt::print(stderr, "goo: error: {}\n", e.what());
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    std::cout.flush();
+    fmt::print(stderr, "goo: internal error: {}\n", e.what());
+    return kExitInternal;
+  }
+}

@@ -1,0 +1,67 @@
+#pragma once
+// Helpers shared by goo's tests.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <string_view>
+
+namespace goo::test {
+
+/// Expects every entry of `actual` within `tolerance` of `expected`, and
+/// names the first index that is not (libigl's test_common.h does the same).
+template <typename A, typename B>
+::testing::AssertionResult matrices_near(const Eigen::MatrixBase<A>& actual, const Eigen::MatrixBase<B>& expected,
+                                         double tolerance) {
+  if (actual.rows() != expected.rows() || actual.cols() != expected.cols()) {
+    return ::testing::AssertionFailure() << "shape " << actual.rows() << "x" << actual.cols() << " != "
+                                         << expected.rows() << "x" << expected.cols();
+  }
+  for (Eigen::Index i = 0; i < actual.rows(); ++i)
+    for (Eigen::Index j = 0; j < actual.cols(); ++j) {
+      const double a = static_cast<double>(actual(i, j)), e = static_cast<double>(expected(i, j));
+      if (!(std::abs(a - e) <= tolerance)) {
+        return ::testing::AssertionFailure() << "at (" << i << ", " << j << "): " << a << " vs " << e
+                                             << " (difference " << a - e << ", tolerance " << tolerance << ")";
+      }
+    }
+  return ::testing::AssertionSuccess();
+}
+
+/// A fresh folder under the system temporary folder, removed at destruction.
+class TempDir {
+public:
+  TempDir() {
+    std::random_device device;
+    path_ = std::filesystem::temp_directory_path() / ("goo_test_" + std::to_string(device()) + std::to_string(device()));
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  [[nodiscard]] const std::filesystem::path& path() const { return path_; }
+  [[nodiscard]] std::filesystem::path operator/(std::string_view name) const { return path_ / name; }
+
+  /// Writes `bytes` to a file of this folder and returns its path.
+  std::filesystem::path write(std::string_view name, std::string_view bytes) const {
+    const std::filesystem::path file = path_ / name;
+    std::ofstream out(file, std::ios::binary);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    return file;
+  }
+
+private:
+  std::filesystem::path path_;
+};
+
+/// The real models extracted by scripts/fetch-assets.
+inline std::filesystem::path asset(std::string_view name) { return std::filesystem::path(GOO_ASSETS_DIR) / name; }
+
+}  // namespace goo::test
