@@ -13,7 +13,9 @@
 namespace goo::app {
 namespace {
 
-std::string yes_no(bool b) { return b ? "yes" : "no"; }
+std::string yes_no(bool b) {
+  return b ? "yes" : "no";
+}
 
 nlohmann::json to_json(const std::filesystem::path& path, const SurfaceReport& r) {
   nlohmann::json j;
@@ -60,7 +62,8 @@ void print_text(std::ostream& out, const std::filesystem::path& path, const Surf
   if (!r.topology_valid) return;
   row("edges", std::to_string(r.num_edges));
   row("area", fmt::format("{:.10g}", r.area));
-  row("volume", fmt::format("{:.10g}{}", std::abs(r.volume), r.volume < 0.0 ? " (inside-out: goo flips it on load)" : ""));
+  row("volume",
+      fmt::format("{:.10g}{}", std::abs(r.volume), r.volume < 0.0 ? " (inside-out: goo flips it on load)" : ""));
   row("centroid", fmt::format("({:.10g}, {:.10g}, {:.10g})", r.centroid.x(), r.centroid.y(), r.centroid.z()));
   std::string euler = std::to_string(r.euler_characteristic());
   if (r.components == 1 && r.manifold() && r.closed() && r.orientable) {
@@ -71,14 +74,16 @@ void print_text(std::ostream& out, const std::filesystem::path& path, const Surf
   row("closed", r.closed() ? "yes" : fmt::format("no ({} boundary edges)", r.boundary_edges));
   std::string manifold = yes_no(r.manifold());
   if (!r.manifold()) {
-    manifold += fmt::format(" ({} non-manifold edges, {} non-manifold vertices)", r.nonmanifold_edges,
-                            r.nonmanifold_vertices);
+    manifold +=
+        fmt::format(" ({} non-manifold edges, {} non-manifold vertices)", r.nonmanifold_edges, r.nonmanifold_vertices);
   }
   row("manifold", manifold);
   std::string oriented = yes_no(r.consistently_oriented());
-  if (!r.orientable) oriented += " (not orientable)";
+  if (!r.orientable)
+    oriented += " (not orientable)";
   else if (r.misoriented_triangles > 0) {
-    oriented += fmt::format(" ({} flipped triangle{})", r.misoriented_triangles, r.misoriented_triangles == 1 ? "" : "s");
+    oriented +=
+        fmt::format(" ({} flipped triangle{})", r.misoriented_triangles, r.misoriented_triangles == 1 ? "" : "s");
   }
   row("oriented", oriented);
   row("simulable", yes_no(!r.first_defect));

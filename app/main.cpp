@@ -1,6 +1,6 @@
 // The goo command line.
-#include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <CLI/CLI.hpp>
 
 #include <iostream>
 
@@ -27,7 +27,8 @@ int main(int argc, char** argv) {
 
   std::string mesh_path;
   bool json = false;
-  CLI::App* info = app.add_subcommand("info", "Describe a surface mesh (OFF, OBJ, PLY, STL) and check it can be simulated");
+  CLI::App* info =
+      app.add_subcommand("info", "Describe a surface mesh (OFF, OBJ, PLY, STL) and check it can be simulated");
   info->add_option("MESH", mesh_path, "Surface mesh file")->required();
   info->add_flag("--json", json, "Print the report as JSON");
 

@@ -1,8 +1,8 @@
 #include "core/polygon_soup.h"
 
+#include <array>
 #include <cmath>
 #include <cstdint>
-#include <array>
 #include <functional>
 #include <unordered_map>
 
@@ -11,16 +11,19 @@
 namespace goo {
 namespace {
 
-std::size_t at(Index i) { return static_cast<std::size_t>(i); }
+std::size_t at(Index i) {
+  return static_cast<std::size_t>(i);
+}
 
-double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
+double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
 
 /// p strictly inside or on the boundary of the counter-clockwise triangle abc.
 bool in_triangle(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b,
                  const Eigen::Vector2d& c) {
   return cross2(b - a, p - a) >= 0.0 && cross2(c - b, p - b) >= 0.0 && cross2(a - c, p - c) >= 0.0;
 }
-
 
 /// Maps each vertex to the lowest-index earlier vertex within `tol`, through
 /// a hash grid of cell size tol (a partner lies in one of the 27 cells
@@ -65,8 +68,7 @@ void weld_within_tolerance(const Points& vertices, const Eigen::AlignedBox3d& bo
 
 }  // namespace
 
-void triangulate_polygon(std::span<const Index> polygon, const Points& vertices,
-                         std::vector<Eigen::Vector3i>& out) {
+void triangulate_polygon(std::span<const Index> polygon, const Points& vertices, std::vector<Eigen::Vector3i>& out) {
   const std::size_t n = polygon.size();
   if (n < 3) return;
   if (n == 3) {
@@ -87,8 +89,7 @@ void triangulate_polygon(std::span<const Index> polygon, const Points& vertices,
   const int u = (drop + 1) % 3, v = (drop + 2) % 3;
   const double sign = normal[drop] >= 0.0 ? 1.0 : -1.0;
   std::vector<Eigen::Vector2d> p2(n);
-  for (std::size_t i = 0; i < n; ++i)
-    p2[i] = {vertices(polygon[i], u), sign * vertices(polygon[i], v)};
+  for (std::size_t i = 0; i < n; ++i) p2[i] = {vertices(polygon[i], u), sign * vertices(polygon[i], v)};
 
   std::vector<std::size_t> ring(n);
   for (std::size_t i = 0; i < n; ++i) ring[i] = i;

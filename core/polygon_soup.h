@@ -11,12 +11,11 @@ namespace goo {
 /// by ear clipping in the plane of its Newell normal, appending triangles with
 /// the polygon's winding to `out`. A polygon with no ear left (self-
 /// intersecting, or degenerate to round-off) is finished as a fan.
-void triangulate_polygon(std::span<const Index> polygon, const Points& vertices,
-                         std::vector<Eigen::Vector3i>& out);
+void triangulate_polygon(std::span<const Index> polygon, const Points& vertices, std::vector<Eigen::Vector3i>& out);
 
 struct WeldResult {
-  Index merged = 0;           ///< vertices merged into an earlier one
-  double tolerance = 0.0;     ///< absolute distance used, m
+  Index merged = 0;        ///< vertices merged into an earlier one
+  double tolerance = 0.0;  ///< absolute distance used, m
 };
 
 /// Merges vertices closer than `relative_tolerance` × (bounding-box diagonal)

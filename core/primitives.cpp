@@ -156,7 +156,9 @@ TriangleMesh make_torus(double major, double minor, int major_segments, int mino
       b.add({rho * std::cos(phi), rho * std::sin(phi), minor * std::sin(theta)});
     }
   }
-  auto id = [&](int i, int j) { return static_cast<Index>((i % major_segments) * minor_segments + (j % minor_segments)); };
+  auto id = [&](int i, int j) {
+    return static_cast<Index>((i % major_segments) * minor_segments + (j % minor_segments));
+  };
   for (int i = 0; i < major_segments; ++i)
     for (int j = 0; j < minor_segments; ++j) b.quad(id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
   return b.finish();

@@ -18,7 +18,9 @@ namespace {
 
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 
-std::size_t at(Index i) { return static_cast<std::size_t>(i); }
+std::size_t at(Index i) {
+  return static_cast<std::size_t>(i);
+}
 
 /// One directed edge of a triangle: from corner k to corner k+1 of triangle t.
 struct HalfEdge {
@@ -39,8 +41,7 @@ std::optional<std::string> check_coordinates_and_indices(const TriangleMesh& mes
     for (int k = 0; k < 3; ++k) {
       const Index v = mesh.triangles(t, k);
       if (v < 0 || v >= mesh.num_vertices()) {
-        return fmt::format("triangle {} references vertex {}, but the mesh has {} vertices", t, v,
-                           mesh.num_vertices());
+        return fmt::format("triangle {} references vertex {}, but the mesh has {} vertices", t, v, mesh.num_vertices());
       }
     }
   }
@@ -59,8 +60,7 @@ std::optional<std::string> check_degenerate(const TriangleMesh& mesh) {
     // The computed cross product carries a rounding error of a few ε|e1||e2|;
     // a triangle whose |e1 × e2| is below that has no area we can resolve.
     if (e1.cross(e2).norm() <= 8.0 * kEps * e1.norm() * e2.norm()) {
-      return fmt::format("triangle {} has zero area (vertices {}, {}, {} are coincident or collinear)", t, a, b,
-                         c);
+      return fmt::format("triangle {} has zero area (vertices {}, {}, {} are coincident or collinear)", t, a, b, c);
     }
   }
   return std::nullopt;
@@ -241,7 +241,9 @@ SurfaceReport analyze_surface(const TriangleMesh& mesh) {
   return report;
 }
 
-void flip_orientation(TriangleMesh& mesh) { mesh.triangles.col(1).swap(mesh.triangles.col(2)); }
+void flip_orientation(TriangleMesh& mesh) {
+  mesh.triangles.col(1).swap(mesh.triangles.col(2));
+}
 
 SurfaceReport validate_surface(TriangleMesh& mesh, std::string_view source) {
   SurfaceReport report = analyze_surface(mesh);

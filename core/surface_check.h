@@ -18,13 +18,13 @@ struct SurfaceReport {
   double area = 0.0;                                   ///< m²
   double volume = 0.0;                                 ///< signed enclosed volume, m³
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  ///< volume centroid, m
-  Index components = 0;             ///< edge-connected components of triangles
-  Index boundary_edges = 0;         ///< edges with one triangle
-  Index nonmanifold_edges = 0;      ///< edges with three or more triangles
-  Index nonmanifold_vertices = 0;   ///< vertices whose triangles form several fans
-  Index misoriented_triangles = 0;  ///< triangles against their component's majority
-  bool orientable = true;           ///< false if no consistent orientation exists
-  bool topology_valid = false;      ///< false if indices or coordinates were unusable
+  Index components = 0;                                ///< edge-connected components of triangles
+  Index boundary_edges = 0;                            ///< edges with one triangle
+  Index nonmanifold_edges = 0;                         ///< edges with three or more triangles
+  Index nonmanifold_vertices = 0;                      ///< vertices whose triangles form several fans
+  Index misoriented_triangles = 0;                     ///< triangles against their component's majority
+  bool orientable = true;                              ///< false if no consistent orientation exists
+  bool topology_valid = false;                         ///< false if indices or coordinates were unusable
 
   /// The first problem that makes the mesh unfit for simulation, phrased for a
   /// user ("triangle 3 is flipped ..."); empty when the mesh is fit, except
@@ -38,9 +38,7 @@ struct SurfaceReport {
     return topology_valid && orientable && misoriented_triangles == 0;
   }
   /// V − E + F (2 − 2g for each closed orientable component of genus g).
-  [[nodiscard]] Index euler_characteristic() const {
-    return num_vertices - num_edges + num_triangles;
-  }
+  [[nodiscard]] Index euler_characteristic() const { return num_vertices - num_edges + num_triangles; }
 };
 
 /// Everything goo knows about a mesh. Never throws: defects are reported, in

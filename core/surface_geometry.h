@@ -31,7 +31,7 @@ double enclosed_volume_by_z_flux(const TriangleMesh& mesh);
 /// Neumaier's compensated sum: the error of a long sum stays O(ε) instead of
 /// O(n ε).
 class CompensatedSum {
-public:
+ public:
   void add(double x) {
     const double t = sum_ + x;
     compensation_ += (std::abs(sum_) >= std::abs(x)) ? (sum_ - t) + x : (x - t) + sum_;
@@ -39,7 +39,7 @@ public:
   }
   [[nodiscard]] double value() const { return sum_ + compensation_; }
 
-private:
+ private:
   double sum_ = 0.0;
   double compensation_ = 0.0;
 };

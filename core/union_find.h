@@ -9,7 +9,7 @@
 namespace goo {
 
 class UnionFind {
-public:
+ public:
   explicit UnionFind(Index n) : parent_(static_cast<std::size_t>(n)), size_(static_cast<std::size_t>(n), 1) {
     std::iota(parent_.begin(), parent_.end(), Index{0});
   }
@@ -30,7 +30,7 @@ public:
     size_[static_cast<std::size_t>(a)] += size_[static_cast<std::size_t>(b)];
   }
 
-private:
+ private:
   std::vector<Index> parent_;
   std::vector<Index> size_;
 };

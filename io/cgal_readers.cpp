@@ -15,8 +15,12 @@ bool read_with_cgal(const std::filesystem::path& path, MeshFormat format, Polygo
   const auto quiet = CGAL::parameters::verbose(false);
   bool ok = false;
   switch (format) {
-    case MeshFormat::off: ok = CGAL::IO::read_OFF(path.string(), points, soup.polygons, quiet); break;
-    case MeshFormat::ply: ok = CGAL::IO::read_PLY(path.string(), points, soup.polygons, quiet); break;
+    case MeshFormat::off:
+      ok = CGAL::IO::read_OFF(path.string(), points, soup.polygons, quiet);
+      break;
+    case MeshFormat::ply:
+      ok = CGAL::IO::read_PLY(path.string(), points, soup.polygons, quiet);
+      break;
     case MeshFormat::stl: {
       std::vector<std::array<std::size_t, 3>> triangles;
       ok = CGAL::IO::read_STL(path.string(), points, triangles, quiet);
@@ -24,7 +28,8 @@ bool read_with_cgal(const std::filesystem::path& path, MeshFormat format, Polygo
       for (const auto& t : triangles) soup.polygons.push_back({t[0], t[1], t[2]});
       break;
     }
-    case MeshFormat::obj: return false;  // tinyobjloader reads OBJ
+    case MeshFormat::obj:
+      return false;  // tinyobjloader reads OBJ
   }
   soup.points.reserve(points.size());
   for (const Point& p : points) soup.points.push_back({p.x(), p.y(), p.z()});

@@ -21,7 +21,7 @@ namespace {
 
 /// Whitespace-separated tokens of a text, with their 1-based line numbers.
 class Tokens {
-public:
+ public:
   Tokens(std::string_view text, bool hash_comments) : text_(text), comments_(hash_comments) {}
 
   struct Token {
@@ -52,7 +52,7 @@ public:
   }
   [[nodiscard]] int line_number() const { return line_; }
 
-private:
+ private:
   static bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f' || c == '\v'; }
   void skip_blanks() {
     while (pos_ < text_.size() && text_[pos_] != '\n' && is_space(text_[pos_])) ++pos_;
@@ -107,7 +107,9 @@ std::optional<std::string> coordinate_problem(std::string_view token) {
   return std::nullopt;
 }
 
-std::string shown(std::string_view token) { return token.empty() ? "the end of the file" : fmt::format("'{}'", token); }
+std::string shown(std::string_view token) {
+  return token.empty() ? "the end of the file" : fmt::format("'{}'", token);
+}
 
 // ---------------------------------------------------------------- OFF
 std::string diagnose_off(std::string_view text) {
@@ -125,8 +127,7 @@ std::string diagnose_off(std::string_view text) {
     const auto token = tokens.next();
     const auto value = to_integer(token.text);
     if (!value || *value < 0) {
-      return fmt::format("line {}: expected the vertex, face and edge counts, found {}", token.line,
-                         shown(token.text));
+      return fmt::format("line {}: expected the vertex, face and edge counts, found {}", token.line, shown(token.text));
     }
     count = *value;
   }
@@ -148,8 +149,8 @@ std::string diagnose_off(std::string_view text) {
     if (line.empty()) return fmt::format("the file ends after {} of the {} faces it declares", f, nf);
     const auto n = to_integer(line[0].text);
     if (!n || *n < 3) {
-      return fmt::format("line {}: face {} must start with its vertex count (at least 3), found '{}'",
-                         line[0].line, f, line[0].text);
+      return fmt::format("line {}: face {} must start with its vertex count (at least 3), found '{}'", line[0].line, f,
+                         line[0].text);
     }
     if (static_cast<long long>(line.size()) < 1 + *n) {
       return fmt::format("line {}: face {} declares {} vertices but lists {}", line[0].line, f, *n, line.size() - 1);
@@ -182,8 +183,7 @@ struct PlyElement {
 int ply_type_size(std::string_view type) {
   if (type == "char" || type == "uchar" || type == "int8" || type == "uint8") return 1;
   if (type == "short" || type == "ushort" || type == "int16" || type == "uint16") return 2;
-  if (type == "int" || type == "uint" || type == "float" || type == "int32" || type == "uint32" ||
-      type == "float32")
+  if (type == "int" || type == "uint" || type == "float" || type == "int32" || type == "uint32" || type == "float32")
     return 4;
   if (type == "double" || type == "float64") return 8;
   return 0;
@@ -197,8 +197,8 @@ long long read_binary_integer(const unsigned char* p, std::string_view type, boo
     const int byte = big_endian ? i : size - 1 - i;
     raw = (raw << 8) | p[byte];
   }
-  const bool is_signed = type == "char" || type == "short" || type == "int" || type == "int8" || type == "int16" ||
-                         type == "int32";
+  const bool is_signed =
+      type == "char" || type == "short" || type == "int" || type == "int8" || type == "int16" || type == "int32";
   if (is_signed && size < 8 && (raw >> (8 * size - 1)) != 0U) {
     return static_cast<long long>(raw) - (1LL << (8 * size));
   }
@@ -241,7 +241,8 @@ std::string diagnose_ply(std::string_view text) {
       PlyProperty property;
       std::string type;
       words >> type;
-      if (type == "list") words >> property.count_type >> property.type >> property.name;
+      if (type == "list")
+        words >> property.count_type >> property.type >> property.name;
       else {
         property.type = type;
         words >> property.name;
@@ -302,8 +303,8 @@ std::string diagnose_ply(std::string_view text) {
             if (element.name == "face" && !property.count_type.empty()) {
               const auto id = to_integer(token.text);
               if (id && (*id < 0 || *id >= nv)) {
-                return fmt::format("line {}: face {} references vertex {}, but the file declares {} vertices", line,
-                                   i, *id, nv);
+                return fmt::format("line {}: face {} references vertex {}, but the file declares {} vertices", line, i,
+                                   *id, nv);
               }
             }
           }
@@ -388,11 +389,14 @@ std::string diagnose_stl(std::string_view text) {
     const auto start = tokens.next();
     if (start.text == "endsolid") return {};
     if (start.end()) return fmt::format("the file ends after facet {} without 'endsolid'", facet);
-    if (start.text != "facet") return fmt::format("line {}: expected 'facet' or 'endsolid', found '{}'", start.line, start.text);
+    if (start.text != "facet")
+      return fmt::format("line {}: expected 'facet' or 'endsolid', found '{}'", start.line, start.text);
     if (auto problem = expect("normal")) return *problem;
     for (int k = 0; k < 3; ++k) {
       const auto token = tokens.next();
-      if (!to_double(token.text)) return fmt::format("line {}: facet {}: normal component {} is not a number", token.line, facet, shown(token.text));
+      if (!to_double(token.text))
+        return fmt::format("line {}: facet {}: normal component {} is not a number", token.line, facet,
+                           shown(token.text));
     }
     if (auto problem = expect("outer")) return *problem;
     if (auto problem = expect("loop")) return *problem;
@@ -415,10 +419,14 @@ std::string diagnose_stl(std::string_view text) {
 std::string find_format_problem(const std::filesystem::path& path, MeshFormat format) {
   const std::string text = read_all(path);
   switch (format) {
-    case MeshFormat::off: return diagnose_off(text);
-    case MeshFormat::ply: return diagnose_ply(text);
-    case MeshFormat::stl: return diagnose_stl(text);
-    case MeshFormat::obj: return {};  // obj_reader.cpp checks OBJ as it reads
+    case MeshFormat::off:
+      return diagnose_off(text);
+    case MeshFormat::ply:
+      return diagnose_ply(text);
+    case MeshFormat::stl:
+      return diagnose_stl(text);
+    case MeshFormat::obj:
+      return {};  // obj_reader.cpp checks OBJ as it reads
   }
   return {};
 }

@@ -41,7 +41,6 @@ struct WriteOptions {
 /// stores doubles, binary STL floats (the format allows nothing else). The
 /// file is written beside its destination and renamed over it, so a failure
 /// leaves any earlier file intact. Throws goo::Error naming the file.
-void write_surface_mesh(const std::filesystem::path& path, const TriangleMesh& mesh,
-                        const WriteOptions& options = {});
+void write_surface_mesh(const std::filesystem::path& path, const TriangleMesh& mesh, const WriteOptions& options = {});
 
 }  // namespace goo::io

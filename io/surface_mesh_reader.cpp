@@ -17,7 +17,8 @@ namespace goo::io {
 
 MeshFormat mesh_format_of(const std::filesystem::path& path) {
   std::string ext = path.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   if (ext == ".off") return MeshFormat::off;
   if (ext == ".obj") return MeshFormat::obj;
   if (ext == ".ply") return MeshFormat::ply;
@@ -28,10 +29,14 @@ MeshFormat mesh_format_of(const std::filesystem::path& path) {
 
 std::string_view to_string(MeshFormat format) {
   switch (format) {
-    case MeshFormat::off: return "OFF";
-    case MeshFormat::obj: return "OBJ";
-    case MeshFormat::ply: return "PLY";
-    case MeshFormat::stl: return "STL";
+    case MeshFormat::off:
+      return "OFF";
+    case MeshFormat::obj:
+      return "OBJ";
+    case MeshFormat::ply:
+      return "PLY";
+    case MeshFormat::stl:
+      return "STL";
   }
   return "?";
 }
@@ -47,20 +52,22 @@ TriangleMesh triangulate(const detail::PolygonSoup& soup, const std::string& nam
   }
   mesh.vertices.resize(static_cast<Eigen::Index>(nv), 3);
   for (std::size_t i = 0; i < nv; ++i)
-    for (int k = 0; k < 3; ++k) mesh.vertices(static_cast<Eigen::Index>(i), k) = soup.points[i][static_cast<std::size_t>(k)];
+    for (int k = 0; k < 3; ++k)
+      mesh.vertices(static_cast<Eigen::Index>(i), k) = soup.points[i][static_cast<std::size_t>(k)];
 
   std::vector<Eigen::Vector3i> triangles;
   triangles.reserve(soup.polygons.size());
   std::vector<Index> polygon;
   for (std::size_t f = 0; f < soup.polygons.size(); ++f) {
     const auto& face = soup.polygons[f];
-    if (face.size() < 3) throw Error(fmt::format("{}: face {} has {} vertices; a face needs at least 3", name, f, face.size()));
+    if (face.size() < 3)
+      throw Error(fmt::format("{}: face {} has {} vertices; a face needs at least 3", name, f, face.size()));
     polygon.clear();
     for (const std::size_t id : face) {
       if (id >= nv) {
-        throw Error(fmt::format("{}: face {} references vertex {}, but the file has {} vertices", name, f,
-                                id == std::numeric_limits<std::size_t>::max() ? std::string("below 0") : std::to_string(id),
-                                nv));
+        throw Error(fmt::format(
+            "{}: face {} references vertex {}, but the file has {} vertices", name, f,
+            id == std::numeric_limits<std::size_t>::max() ? std::string("below 0") : std::to_string(id), nv));
       }
       polygon.push_back(static_cast<Index>(id));
     }
@@ -70,7 +77,8 @@ TriangleMesh triangulate(const detail::PolygonSoup& soup, const std::string& nam
     throw Error(fmt::format("{}: {} triangles is more than goo's 32-bit ids hold", name, triangles.size()));
   }
   mesh.triangles.resize(static_cast<Eigen::Index>(triangles.size()), 3);
-  for (std::size_t t = 0; t < triangles.size(); ++t) mesh.triangles.row(static_cast<Eigen::Index>(t)) = triangles[t].transpose();
+  for (std::size_t t = 0; t < triangles.size(); ++t)
+    mesh.triangles.row(static_cast<Eigen::Index>(t)) = triangles[t].transpose();
   return mesh;
 }
 

@@ -37,7 +37,8 @@ void write_off(std::ostream& out, const TriangleMesh& mesh) {
     b.push_back('\n');
   }
   for (Index t = 0; t < mesh.num_triangles(); ++t)
-    fmt::format_to(std::back_inserter(b), "3 {} {} {}\n", mesh.triangles(t, 0), mesh.triangles(t, 1), mesh.triangles(t, 2));
+    fmt::format_to(std::back_inserter(b), "3 {} {} {}\n", mesh.triangles(t, 0), mesh.triangles(t, 1),
+                   mesh.triangles(t, 2));
   flush(out, b);
 }
 
@@ -143,10 +144,18 @@ void write_surface_mesh(const std::filesystem::path& path, const TriangleMesh& m
   const MeshFormat format = mesh_format_of(path);
   write_file_atomically(path, [&](std::ostream& out) {
     switch (format) {
-      case MeshFormat::off: write_off(out, mesh); break;
-      case MeshFormat::obj: write_obj(out, mesh); break;
-      case MeshFormat::ply: write_ply(out, mesh, options.encoding); break;
-      case MeshFormat::stl: write_stl(out, mesh, options.encoding); break;
+      case MeshFormat::off:
+        write_off(out, mesh);
+        break;
+      case MeshFormat::obj:
+        write_obj(out, mesh);
+        break;
+      case MeshFormat::ply:
+        write_ply(out, mesh, options.encoding);
+        break;
+      case MeshFormat::stl:
+        write_stl(out, mesh, options.encoding);
+        break;
     }
   });
 }

@@ -36,8 +36,8 @@ std::string slurp(const std::filesystem::path& path) {
 
 CommandResult goo(const std::string& arguments) {
   test::TempDir dir;
-  const std::string command = std::string("'") + GOO_EXECUTABLE + "' " + arguments + " > '" +
-                              (dir / "out").string() + "' 2> '" + (dir / "err").string() + "'";
+  const std::string command = std::string("'") + GOO_EXECUTABLE + "' " + arguments + " > '" + (dir / "out").string() +
+                              "' 2> '" + (dir / "err").string() + "'";
   const int status = std::system(command.c_str());
   CommandResult run;
   run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -100,17 +100,18 @@ TEST_P(GooInfoBadInput, ExitsTwoWithTheErrorOnStderr) {
   EXPECT_THAT(run.err, HasSubstr(bad.expected));
 }
 
-INSTANTIATE_TEST_SUITE_P(Fixtures, GooInfoBadInput, ::testing::ValuesIn(test::bad_meshes()), [](const auto& param_info) {
-  std::string name = param_info.param.name;
-  for (char& c : name)
-    if (c == '.') c = '_';
-  return name;
-});
+INSTANTIATE_TEST_SUITE_P(Fixtures, GooInfoBadInput, ::testing::ValuesIn(test::bad_meshes()),
+                         [](const auto& param_info) {
+                           std::string name = param_info.param.name;
+                           for (char& c : name)
+                             if (c == '.') c = '_';
+                           return name;
+                         });
 
 TEST(GooInfo, OpenMeshIsDescribedThenRefused) {
   test::TempDir dir;
-  const auto path = dir.write("open.off", test::off_tetrahedron(test::kTetVertices, "3 0 2 1\n3 0 1 3\n3 0 3 2\n",
-                                                                "OFF\n4 3 0\n"));
+  const auto path =
+      dir.write("open.off", test::off_tetrahedron(test::kTetVertices, "3 0 2 1\n3 0 1 3\n3 0 3 2\n", "OFF\n4 3 0\n"));
   const CommandResult run = goo("info '" + path.string() + "'");
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_THAT(run.out, HasSubstr("closed         no (3 boundary edges)"));

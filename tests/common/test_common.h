@@ -18,15 +18,15 @@ template <typename A, typename B>
 ::testing::AssertionResult matrices_near(const Eigen::MatrixBase<A>& actual, const Eigen::MatrixBase<B>& expected,
                                          double tolerance) {
   if (actual.rows() != expected.rows() || actual.cols() != expected.cols()) {
-    return ::testing::AssertionFailure() << "shape " << actual.rows() << "x" << actual.cols() << " != "
-                                         << expected.rows() << "x" << expected.cols();
+    return ::testing::AssertionFailure() << "shape " << actual.rows() << "x" << actual.cols()
+                                         << " != " << expected.rows() << "x" << expected.cols();
   }
   for (Eigen::Index i = 0; i < actual.rows(); ++i)
     for (Eigen::Index j = 0; j < actual.cols(); ++j) {
       const double a = static_cast<double>(actual(i, j)), e = static_cast<double>(expected(i, j));
       if (!(std::abs(a - e) <= tolerance)) {
-        return ::testing::AssertionFailure() << "at (" << i << ", " << j << "): " << a << " vs " << e
-                                             << " (difference " << a - e << ", tolerance " << tolerance << ")";
+        return ::testing::AssertionFailure() << "at (" << i << ", " << j << "): " << a << " vs " << e << " (difference "
+                                             << a - e << ", tolerance " << tolerance << ")";
       }
     }
   return ::testing::AssertionSuccess();
@@ -34,10 +34,11 @@ template <typename A, typename B>
 
 /// A fresh folder under the system temporary folder, removed at destruction.
 class TempDir {
-public:
+ public:
   TempDir() {
     std::random_device device;
-    path_ = std::filesystem::temp_directory_path() / ("goo_test_" + std::to_string(device()) + std::to_string(device()));
+    path_ =
+        std::filesystem::temp_directory_path() / ("goo_test_" + std::to_string(device()) + std::to_string(device()));
     std::filesystem::create_directories(path_);
   }
   ~TempDir() {
@@ -57,11 +58,13 @@ public:
     return file;
   }
 
-private:
+ private:
   std::filesystem::path path_;
 };
 
 /// The real models extracted by scripts/fetch-assets.
-inline std::filesystem::path asset(std::string_view name) { return std::filesystem::path(GOO_ASSETS_DIR) / name; }
+inline std::filesystem::path asset(std::string_view name) {
+  return std::filesystem::path(GOO_ASSETS_DIR) / name;
+}
 
 }  // namespace goo::test

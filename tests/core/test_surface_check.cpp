@@ -37,9 +37,9 @@ TEST(SurfaceCheck, OpenMeshNamesABoundaryEdge) {
 
 TEST(SurfaceCheck, EdgeSharedByFourTrianglesIsNonManifold) {
   // Two tetrahedra that share only the edge (0, 1).
-  const TriangleMesh mesh = test::make_mesh(
-      {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, -1, 0}, {0, 0, -1}},
-      {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}, {0, 4, 1}, {0, 1, 5}, {0, 5, 4}, {1, 4, 5}});
+  const TriangleMesh mesh =
+      test::make_mesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, -1, 0}, {0, 0, -1}},
+                      {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}, {0, 4, 1}, {0, 1, 5}, {0, 5, 4}, {1, 4, 5}});
   const SurfaceReport r = analyze_surface(mesh);
   ASSERT_TRUE(r.first_defect.has_value());
   EXPECT_THAT(*r.first_defect, HasSubstr("edge (0, 1) is shared by 4 triangles"));
@@ -48,9 +48,9 @@ TEST(SurfaceCheck, EdgeSharedByFourTrianglesIsNonManifold) {
 }
 
 TEST(SurfaceCheck, TetrahedraTouchingAtAVertexAreEdgeManifoldButNotManifold) {
-  const TriangleMesh mesh = test::make_mesh(
-      {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-1, 0, 0}, {0, -1, 0}, {0, 0, -1}},
-      {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}, {0, 4, 5}, {0, 6, 4}, {0, 5, 6}, {4, 6, 5}});
+  const TriangleMesh mesh =
+      test::make_mesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {-1, 0, 0}, {0, -1, 0}, {0, 0, -1}},
+                      {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}, {0, 4, 5}, {0, 6, 4}, {0, 5, 6}, {4, 6, 5}});
   const SurfaceReport r = analyze_surface(mesh);
   EXPECT_FALSE(r.first_defect.has_value()) << *r.first_defect;
   EXPECT_TRUE(r.edge_manifold());

@@ -16,7 +16,9 @@ struct BadMesh {
   std::string expected;  // substring of the error message
 };
 
-inline void PrintTo(const BadMesh& bad, std::ostream* os) { *os << bad.name; }
+inline void PrintTo(const BadMesh& bad, std::ostream* os) {
+  *os << bad.name;
+}
 
 inline std::string off_tetrahedron(const std::string& vertices, const std::string& faces,
                                    const std::string& header = "OFF\n4 4 0\n") {
@@ -65,15 +67,16 @@ inline std::vector<BadMesh> bad_meshes() {
   return {
       {"open.off", off_tetrahedron(kTetVertices, "3 0 2 1\n3 0 1 3\n3 0 3 2\n", "OFF\n4 3 0\n"), "not closed"},
       {"nonmanifold.off",
-       "OFF\n6 8 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n0 -1 0\n0 0 -1\n" + kTetFaces +
-           "3 0 4 1\n3 0 1 5\n3 0 5 4\n3 1 4 5\n",
+       "OFF\n6 8 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n0 -1 0\n0 0 -1\n" + kTetFaces + "3 0 4 1\n3 0 1 5\n3 0 5 4\n3 1 4 5\n",
        "edge (0, 1) is shared by 4 triangles"},
       {"flipped.off", off_tetrahedron(kTetVertices, "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 3 2\n"), "triangle 3 is flipped"},
-      {"nan.off", off_tetrahedron("0 0 0\nnan 0 0\n0 1 0\n0 0 1\n", kTetFaces), "line 4: vertex 1: the coordinate 'nan' is not finite"},
+      {"nan.off", off_tetrahedron("0 0 0\nnan 0 0\n0 1 0\n0 0 1\n", kTetFaces),
+       "line 4: vertex 1: the coordinate 'nan' is not finite"},
       {"nan.ply", binary_ply_tetrahedron(nan), "vertex 1 has a non-finite coordinate"},
       {"nan.obj", "v 0 0 0\nv 1 0 0\nv 0 inf 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
        "line 3: vertex 2: the coordinate 'inf' is not finite"},
-      {"text.off", off_tetrahedron("0 0 0\n1 zero 0\n0 1 0\n0 0 1\n", kTetFaces), "line 4: vertex 1: 'zero' is not a number"},
+      {"text.off", off_tetrahedron("0 0 0\n1 zero 0\n0 1 0\n0 0 1\n", kTetFaces),
+       "line 4: vertex 1: 'zero' is not a number"},
       {"range.off", off_tetrahedron(kTetVertices, "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 9\n"),
        "line 10: face 3 references vertex 9, but the file declares 4 vertices"},
       {"range.ply", binary_ply_tetrahedron(0.0f, 9), "face 3 references vertex 9"},
@@ -88,10 +91,12 @@ inline std::vector<BadMesh> bad_meshes() {
        "truncated: its header declares 4 triangles (284 bytes) but the file has 254 bytes"},
       {"short.stl", stl.substr(0, 40), "too short for a binary STL"},
       {"truncated.off", off_tetrahedron(kTetVertices, "3 0 2 1\n3 0 1 3\n"), "ends after 2 of the 4 faces"},
-      {"header.off", off_tetrahedron(kTetVertices, kTetFaces, "OFX\n4 4 0\n"), "line 1: wrong header: expected 'OFF', found 'OFX'"},
+      {"header.off", off_tetrahedron(kTetVertices, kTetFaces, "OFX\n4 4 0\n"),
+       "line 1: wrong header: expected 'OFF', found 'OFX'"},
       {"header.ply", "plx\n" + ply.substr(4), "line 1: wrong header: expected 'ply', found 'plx'"},
       {"noend.ply", "ply\nformat ascii 1.0\nelement vertex 4\n", "no 'end_header'"},
-      {"ascii.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 nan\n", "facet 0: the coordinate 'nan' is not finite"},
+      {"ascii.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 nan\n",
+       "facet 0: the coordinate 'nan' is not finite"},
       {"mesh.xyz", "0 0 0\n", "unknown surface mesh format '.xyz'"},
   };
 }

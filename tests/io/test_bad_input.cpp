@@ -52,8 +52,8 @@ TEST(BadInput, MissingFileAndFolderAreNamed) {
 
 TEST(BadInput, ValidationCanBeDeferredToTheCaller) {
   test::TempDir dir;
-  const auto path = dir.write("open.off", test::off_tetrahedron(test::kTetVertices, "3 0 2 1\n3 0 1 3\n3 0 3 2\n",
-                                                                "OFF\n4 3 0\n"));
+  const auto path =
+      dir.write("open.off", test::off_tetrahedron(test::kTetVertices, "3 0 2 1\n3 0 1 3\n3 0 3 2\n", "OFF\n4 3 0\n"));
   io::ReadOptions options;
   options.validate = false;
   EXPECT_EQ(io::read_surface_mesh(path, options).num_triangles(), 3);

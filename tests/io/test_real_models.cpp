@@ -22,7 +22,8 @@ double exact_volume(const TriangleMesh& mesh) {
   for (Index v = 0; v < mesh.num_vertices(); ++v)
     ids.push_back(sm.add_vertex(Kernel::Point_3(mesh.vertices(v, 0), mesh.vertices(v, 1), mesh.vertices(v, 2))));
   for (Index t = 0; t < mesh.num_triangles(); ++t)
-    sm.add_face(ids[static_cast<std::size_t>(mesh.triangles(t, 0))], ids[static_cast<std::size_t>(mesh.triangles(t, 1))],
+    sm.add_face(ids[static_cast<std::size_t>(mesh.triangles(t, 0))],
+                ids[static_cast<std::size_t>(mesh.triangles(t, 1))],
                 ids[static_cast<std::size_t>(mesh.triangles(t, 2))]);
   return CGAL::to_double(CGAL::Polygon_mesh_processing::volume(sm));
 }

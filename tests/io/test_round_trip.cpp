@@ -37,7 +37,9 @@ struct Case {
   bool exact;  // false: stored as float
 };
 
-void PrintTo(const Case& c, std::ostream* os) { *os << c.file << (c.encoding == io::Encoding::ascii ? " ascii" : " binary"); }
+void PrintTo(const Case& c, std::ostream* os) {
+  *os << c.file << (c.encoding == io::Encoding::ascii ? " ascii" : " binary");
+}
 
 class RoundTrip : public ::testing::TestWithParam<Case> {};
 
