@@ -1,0 +1,35 @@
+#pragma once
+// Kinematic constraints of a body: pinned nodes, nodes moved along a
+// prescribed path, and a ground half-space nodes cannot cross (a stand-in
+// until collisions on the embedded surface land).
+#include <functional>
+#include <optional>
+#include <vector>
+
+#include "core/types.h"
+
+namespace goo {
+
+/// Nodes whose position is a given function of time.
+struct PrescribedMotion {
+  std::vector<Index> nodes;
+  /// Position of `node` at time t (s), given its rest position.
+  std::function<Eigen::Vector3d(Index node, const Eigen::Vector3d& rest, double t)> position;
+};
+
+/// The region n·x ≥ offset (n unit). Nodes below are pushed back onto the
+/// plane; their inward normal velocity is removed and their tangential
+/// velocity reduced by friction × the removed normal speed (Coulomb).
+struct HalfSpace {
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  double offset = 0.0;
+  double friction = 0.0;
+};
+
+struct Constraints {
+  std::vector<Index> pinned;
+  std::vector<PrescribedMotion> prescribed;
+  std::optional<HalfSpace> ground;
+};
+
+}  // namespace goo

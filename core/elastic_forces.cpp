@@ -1,0 +1,104 @@
+#include "core/elastic_forces.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+
+#include "core/plasticity.h"
+#include "core/surface_geometry.h"
+
+namespace goo {
+namespace {
+
+std::size_t at(Index i) { return static_cast<std::size_t>(i); }
+
+/// Fixed grain: work splits the same way whatever the thread count (the
+/// results do not depend on it anyway; this keeps scheduling cheap).
+constexpr Index kGrain = 512;
+
+}  // namespace
+
+Eigen::Matrix3d deformation_gradient(const Body& body, const Points& x, Index e) {
+  const auto& t = body.tets;
+  const Eigen::Vector3d x0 = x.row(t(e, 0));
+  Eigen::Matrix3d Ds;
+  Ds.col(0) = x.row(t(e, 1)).transpose() - x0;
+  Ds.col(1) = x.row(t(e, 2)).transpose() - x0;
+  Ds.col(2) = x.row(t(e, 3)).transpose() - x0;
+  return Ds * body.Dm_inv[at(e)];
+}
+
+void gather_to_nodes(const NodeIncidence& incidence, const std::vector<Matrix34>& per_element, Points& out) {
+  const auto num_nodes = static_cast<Index>(incidence.offsets.size() - 1);
+  out.resize(num_nodes, 3);
+  tbb::parallel_for(tbb::blocked_range<Index>(0, num_nodes, kGrain), [&](const tbb::blocked_range<Index>& range) {
+    for (Index n = range.begin(); n != range.end(); ++n) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (Index c = incidence.offsets[at(n)]; c < incidence.offsets[at(n) + 1]; ++c) {
+        const Index corner = incidence.corners[at(c)];
+        sum += per_element[at(corner / 4)].col(corner % 4);
+      }
+      out.row(n) = sum.transpose();
+    }
+  });
+}
+
+void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Points& f) {
+  const Index ne = body.num_elements();
+  element_forces_.resize(at(ne));
+  Fe_.resize(at(ne));
+  Fp_inv_.resize(at(ne));
+  element_dt_.resize(at(ne));
+  flowed_.assign(at(ne), 0);
+  const IsotropicEnergy energy(body.material);
+  const Material& material = body.material;
+  const bool plastic = plastic_dt > 0.0 && material.plastic() && material.flow_rate > 0.0;
+  const double modulus = energy.lambda() + 2.0 * energy.mu();
+
+  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kGrain), [&](const tbb::blocked_range<Index>& range) {
+    for (Index e = range.begin(); e != range.end(); ++e) {
+      const Eigen::Matrix3d& Dm_inv = body.Dm_inv[at(e)];
+      Eigen::Matrix3d& Fp = body.Fp[at(e)];
+      const Eigen::Matrix3d F = deformation_gradient(body, x, e);
+      Eigen::Matrix3d Fp_inv = Fp.inverse();
+      Svd3 svd = svd3(F * Fp_inv);
+      if (plastic && plastic_flow(material, energy, plastic_dt, svd, Fp, body.alpha[e])) {
+        Fp_inv = Fp.inverse();
+        flowed_[at(e)] = 1;
+      }
+      const double stress_free_volume = body.rest_volumes[e] * Fp.determinant();
+      const Eigen::Matrix3d P = svd.U * energy.dpsi(svd.sigma).asDiagonal() * svd.V.transpose();
+      const Eigen::Matrix3d H = -stress_free_volume * P * Fp_inv.transpose() * Dm_inv.transpose();
+      Matrix34& out = element_forces_[at(e)];
+      out.col(0) = -H.rowwise().sum();
+      out.rightCols<3>() = H;
+      Fe_[at(e)] = svd.U * svd.sigma.asDiagonal() * svd.V.transpose();
+      Fp_inv_[at(e)] = Fp_inv;
+
+      // Explicit stability bound (algorithms.md, "Time integration").
+      const double grad_sq = Dm_inv.squaredNorm() + Dm_inv.colwise().sum().squaredNorm();
+      const double k_e = modulus * stress_free_volume * grad_sq;
+      double m_min = body.masses[body.tets(e, 0)];
+      for (int k = 1; k < 4; ++k) m_min = std::min(m_min, body.masses[body.tets(e, k)]);
+      element_dt_[at(e)] = std::sqrt(m_min / k_e);
+    }
+  });
+  gather_to_nodes(body.incidence, element_forces_, f);
+  // min and counting are exact in any order.
+  critical_dt_ = ne > 0 ? *std::min_element(element_dt_.begin(), element_dt_.end()) : 0.0;
+  plastic_count_ = static_cast<Index>(std::count(flowed_.begin(), flowed_.end(), 1));
+}
+
+double elastic_energy(const Body& body, const Points& x) {
+  const IsotropicEnergy energy(body.material);
+  CompensatedSum total;
+  for (Index e = 0; e < body.num_elements(); ++e) {
+    const Eigen::Matrix3d& Fp = body.Fp[at(e)];
+    const Eigen::Matrix3d Fe = deformation_gradient(body, x, e) * Fp.inverse();
+    total.add(body.rest_volumes[e] * Fp.determinant() * energy.psi(svd3(Fe).sigma));
+  }
+  return total.value();
+}
+
+}  // namespace goo

@@ -1,0 +1,55 @@
+#pragma once
+// Elastic forces of a tetrahedral body: per element in parallel into
+// per-element buffers, then gathered to nodes in a fixed order, so results
+// are bitwise identical for any number of threads (architecture.md).
+#include <vector>
+
+#include "core/body.h"
+#include "core/elasticity.h"
+
+namespace goo {
+
+using Matrix34 = Eigen::Matrix<double, 3, 4>;
+
+/// Sums per-element corner values into nodes through the incidence order:
+/// out.row(n) = Σ per_element[e].col(k) over the corners (e, k) of node n.
+void gather_to_nodes(const NodeIncidence& incidence, const std::vector<Matrix34>& per_element, Points& out);
+
+class ElasticForces {
+public:
+  /// f (#N×3, N) = elastic forces at positions x. If plastic_dt > 0, each
+  /// element first flows plastically for a step of that length (reusing its
+  /// SVD), updating body.Fp and body.alpha. Records each element's Fe and
+  /// Fp⁻¹ (for damping) and its explicit time-step bound. Element e's nodal forces are H = −W det(Fp) P(Fe) Fp⁻ᵀ Dm⁻ᵀ,
+  /// minus their sum on node 0 (algorithms.md, "Kinematics").
+  void evaluate(Body& body, const Points& x, double plastic_dt, Points& f);
+
+  /// Fe and Fp⁻¹ of every element at the last evaluation (after plastic
+  /// flow): what the damping solves freeze.
+  [[nodiscard]] const std::vector<Eigen::Matrix3d>& elastic_deformation() const { return Fe_; }
+  [[nodiscard]] const std::vector<Eigen::Matrix3d>& inverse_plastic_deformation() const { return Fp_inv_; }
+  /// min over elements of √(m_min / k_e) at the last evaluation, with
+  /// k_e = (λ + 2μ) W det(Fp) Σ_i |∇λ_i|² (∇λ_i: gradients of the
+  /// barycentric coordinates, rows of Dm⁻¹ and minus their sum) and m_min the
+  /// element's lightest node. Multiply by a CFL number ≤ 1.
+  [[nodiscard]] double critical_time_step() const { return critical_dt_; }
+  /// Elements that flowed at the last evaluation.
+  [[nodiscard]] Index plastic_elements() const { return plastic_count_; }
+
+private:
+  std::vector<Matrix34> element_forces_;
+  std::vector<Eigen::Matrix3d> Fe_;
+  std::vector<Eigen::Matrix3d> Fp_inv_;
+  std::vector<double> element_dt_;
+  std::vector<unsigned char> flowed_;
+  double critical_dt_ = 0.0;
+  Index plastic_count_ = 0;
+};
+
+/// Σ_e W det(Fp) ψ(Fe) at positions x, J.
+double elastic_energy(const Body& body, const Points& x);
+
+/// Deformation gradient F = Ds Dm⁻¹ of element e at positions x.
+Eigen::Matrix3d deformation_gradient(const Body& body, const Points& x, Index e);
+
+}  // namespace goo

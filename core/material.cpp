@@ -1,0 +1,47 @@
+#include "core/material.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "core/error.h"
+
+namespace goo {
+
+std::string_view to_string(ElasticModel model) {
+  switch (model) {
+    case ElasticModel::neo_hookean: return "neo_hookean";
+    case ElasticModel::fixed_corotated: return "fixed_corotated";
+    case ElasticModel::stable_neo_hookean: return "stable_neo_hookean";
+  }
+  return "?";
+}
+
+ElasticModel elastic_model_from_string(std::string_view name) {
+  for (const ElasticModel m :
+       {ElasticModel::neo_hookean, ElasticModel::fixed_corotated, ElasticModel::stable_neo_hookean}) {
+    if (name == to_string(m)) return m;
+  }
+  throw Error(fmt::format("unknown elastic model '{}' (expected neo_hookean, fixed_corotated or stable_neo_hookean)",
+                          name));
+}
+
+void validate(const Material& m, std::string_view where) {
+  auto fail = [&](std::string_view field, std::string_view rule, double value) {
+    throw Error(fmt::format("{}.{} must be {}, got {}", where, field, rule, value));
+  };
+  if (!(m.density > 0.0) || !std::isfinite(m.density)) fail("density", "positive and finite", m.density);
+  if (!(m.youngs_modulus > 0.0) || !std::isfinite(m.youngs_modulus)) {
+    fail("youngs_modulus", "positive and finite", m.youngs_modulus);
+  }
+  if (!(m.poisson_ratio >= 0.0 && m.poisson_ratio < 0.5)) fail("poisson_ratio", "in [0, 0.5)", m.poisson_ratio);
+  if (!(m.viscosity >= 0.0) || !std::isfinite(m.viscosity)) fail("viscosity", "non-negative and finite", m.viscosity);
+  if (!(m.yield_stress >= 0.0)) fail("yield_stress", "non-negative (infinite: no plasticity)", m.yield_stress);
+  if (!(m.flow_rate >= 0.0) || !std::isfinite(m.flow_rate)) fail("flow_rate", "non-negative and finite", m.flow_rate);
+  if (!(m.hardening >= 0.0) || !std::isfinite(m.hardening)) fail("hardening", "non-negative and finite", m.hardening);
+  if (!(m.min_mass_fraction >= 0.0 && m.min_mass_fraction <= 1.0)) {
+    fail("min_mass_fraction", "in [0, 1]", m.min_mass_fraction);
+  }
+}
+
+}  // namespace goo

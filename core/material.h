@@ -1,0 +1,44 @@
+#pragma once
+// The material of one body: elasticity, viscosity, plasticity, density.
+#include <limits>
+#include <string>
+#include <string_view>
+
+namespace goo {
+
+/// Isotropic hyperelastic energy density models (algorithms.md).
+enum class ElasticModel {
+  neo_hookean,         ///< the paper's (Irving et al. 2004), ln continued below a threshold
+  fixed_corotated,     ///< Stomakhin et al. 2012
+  stable_neo_hookean,  ///< Smith et al. 2018
+};
+
+std::string_view to_string(ElasticModel model);
+/// "neo_hookean", "fixed_corotated", "stable_neo_hookean"; goo::Error otherwise.
+ElasticModel elastic_model_from_string(std::string_view name);
+
+struct Material {
+  double density = 1000.0;        ///< ρ, kg/m³
+  double youngs_modulus = 1e5;    ///< E, Pa
+  double poisson_ratio = 0.3;     ///< ν_P, in [0, 0.5)
+  double viscosity = 0.0;         ///< β, Pa·s (corotated Rayleigh damping)
+  double yield_stress = std::numeric_limits<double>::infinity();  ///< PY, Pa (∞: purely elastic)
+  double flow_rate = 0.0;         ///< ν, 1/s (per unit time: rate-independent)
+  double hardening = 0.0;         ///< K, dimensionless
+  double min_mass_fraction = 0.0; ///< m_min as a fraction of a full node's mass (W&T sec. 6)
+  ElasticModel model = ElasticModel::fixed_corotated;
+
+  /// Lamé parameters: μ = E / (2(1+ν)), λ = E ν / ((1+ν)(1−2ν)).
+  [[nodiscard]] double mu() const { return youngs_modulus / (2.0 * (1.0 + poisson_ratio)); }
+  [[nodiscard]] double lambda() const {
+    return youngs_modulus * poisson_ratio / ((1.0 + poisson_ratio) * (1.0 - 2.0 * poisson_ratio));
+  }
+  [[nodiscard]] bool plastic() const { return yield_stress < std::numeric_limits<double>::infinity(); }
+};
+
+/// Refuses impossible parameters with goo::Error naming the field
+/// ("material.poisson_ratio must be in [0, 0.5), got 0.5"). `where` prefixes
+/// the field names (a scene path, say).
+void validate(const Material& material, std::string_view where = "material");
+
+}  // namespace goo

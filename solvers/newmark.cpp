@@ -1,0 +1,200 @@
+#include "solvers/newmark.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.h"
+
+namespace goo {
+namespace {
+
+std::size_t at(Index i) { return static_cast<std::size_t>(i); }
+
+/// Σ a∘b over all entries, in a fixed order (deterministic).
+double dot(const Points& a, const Points& b) { return a.cwiseProduct(b).sum(); }
+
+}  // namespace
+
+NewmarkIntegrator::NewmarkIntegrator(NewmarkSettings settings, Constraints constraints)
+    : settings_(std::move(settings)), constraints_(std::move(constraints)) {
+  if (!(settings_.cfl > 0.0 && settings_.cfl <= 1.0)) {
+    throw Error(fmt::format("newmark.cfl must be in (0, 1], got {}", settings_.cfl));
+  }
+  if (!(settings_.max_time_step > 0.0)) {
+    throw Error(fmt::format("newmark.max_time_step must be positive, got {}", settings_.max_time_step));
+  }
+  if (!(settings_.max_strain_per_step > 0.0)) {
+    throw Error(fmt::format("newmark.max_strain_per_step must be positive, got {}", settings_.max_strain_per_step));
+  }
+  if (constraints_.ground) constraints_.ground->normal.normalize();
+}
+
+void NewmarkIntegrator::ensure_forces(Body& body) {
+  if (have_forces_ && forces_.rows() == body.num_nodes()) return;
+  elastic_.evaluate(body, body.positions, 0.0, forces_);
+  constrained_.assign(at(body.num_nodes()), 0);
+  for (const Index n : constraints_.pinned) constrained_.at(at(n)) = 1;
+  for (const auto& motion : constraints_.prescribed)
+    for (const Index n : motion.nodes) constrained_.at(at(n)) = 1;
+  have_forces_ = true;
+}
+
+double NewmarkIntegrator::stable_time_step(Body& body) {
+  ensure_forces(body);
+  double dt = std::min(settings_.max_time_step, settings_.cfl * elastic_.critical_time_step());
+  const double rate = max_strain_rate(body, body.velocities);
+  if (rate > 0.0) dt = std::min(dt, settings_.max_strain_per_step / rate);
+  return dt;
+}
+
+void NewmarkIntegrator::apply_gravity_and_forces(const Body& body, const Points& v, double half_dt,
+                                                 Points& rhs) const {
+  // rhs = M v + h (f_e + M g)
+  rhs.resize(body.num_nodes(), 3);
+  for (Index n = 0; n < body.num_nodes(); ++n) {
+    const double m = body.masses[n];
+    rhs.row(n) = m * v.row(n) + half_dt * (forces_.row(n) + m * settings_.gravity.transpose());
+  }
+}
+
+void NewmarkIntegrator::impose_velocities(const Body& body, double t_next, double dt, Points& v) const {
+  for (const Index n : constraints_.pinned) v.row(n).setZero();
+  for (const auto& motion : constraints_.prescribed)
+    for (const Index n : motion.nodes) {
+      const Eigen::Vector3d target = motion.position(n, body.rest_positions.row(n).transpose(), t_next);
+      v.row(n) = (target.transpose() - body.positions.row(n)) / dt;
+    }
+}
+
+void NewmarkIntegrator::solve_damped(const Body& body, double h, const Points& rhs, Points& v, StepStatus& status) {
+  const Index nn = body.num_nodes();
+  const Eigen::VectorXd& m = body.masses;
+  auto free_only = [&](Points& a) {
+    for (Index n = 0; n < nn; ++n)
+      if (constrained_[at(n)]) a.row(n).setZero();
+  };
+  if (body.material.viscosity == 0.0) {
+    for (Index n = 0; n < nn; ++n)
+      if (!constrained_[at(n)]) v.row(n) = rhs.row(n) / m[n];
+    return;
+  }
+  // Conjugate gradients on (M + h C) v = rhs over the free nodes, Jacobi
+  // (mass) preconditioned; v starts from its current value (a good guess).
+  auto apply = [&](const Points& x, Points& out) {
+    damping_.apply(body, elastic_.elastic_deformation(), elastic_.inverse_plastic_deformation(), x, Cp_);  // −C x
+    out = x;
+    for (Index n = 0; n < nn; ++n) out.row(n) *= m[n];
+    out -= h * Cp_;
+  };
+  apply(v, Ap_);
+  r_ = rhs - Ap_;
+  free_only(r_);
+  const double rhs_norm = std::sqrt([&] {
+    Points free_rhs = rhs;
+    free_only(free_rhs);
+    return dot(free_rhs, free_rhs);
+  }());
+  if (rhs_norm == 0.0) return;
+  z_ = r_;
+  for (Index n = 0; n < nn; ++n) z_.row(n) /= m[n];
+  p_ = z_;
+  double rz = dot(r_, z_);
+  int iteration = 0;
+  double residual = std::sqrt(dot(r_, r_)) / rhs_norm;
+  while (residual > settings_.cg_tolerance && iteration < settings_.cg_max_iterations) {
+    apply(p_, Ap_);
+    free_only(Ap_);
+    const double alpha = rz / dot(p_, Ap_);
+    v += alpha * p_;
+    r_ -= alpha * Ap_;
+    residual = std::sqrt(dot(r_, r_)) / rhs_norm;
+    ++iteration;
+    z_ = r_;
+    for (Index n = 0; n < nn; ++n) z_.row(n) /= m[n];
+    const double rz_next = dot(r_, z_);
+    p_ = z_ + (rz_next / rz) * p_;
+    rz = rz_next;
+  }
+  status.cg_iterations += iteration;
+  status.cg_residual = std::max(status.cg_residual, residual);
+}
+
+Index NewmarkIntegrator::enforce_ground(Body& body) {
+  if (!constraints_.ground) return 0;
+  const HalfSpace& g = *constraints_.ground;
+  Index contacts = 0;
+  for (Index n = 0; n < body.num_nodes(); ++n) {
+    if (constrained_[at(n)]) continue;
+    const double depth = g.offset - g.normal.dot(body.positions.row(n).transpose());
+    if (depth < 0.0) continue;
+    ++contacts;
+    body.positions.row(n) += depth * g.normal.transpose();
+    Eigen::Vector3d v = body.velocities.row(n);
+    const double vn = g.normal.dot(v);
+    if (vn < 0.0) {
+      v -= vn * g.normal;  // remove the inward normal velocity
+      Eigen::Vector3d vt = v - g.normal.dot(v) * g.normal;
+      const double speed = vt.norm();
+      const double reduction = g.friction * -vn;  // Coulomb: |Δv_t| ≤ μ |Δv_n|
+      if (speed > 0.0) v -= std::min(reduction, speed) / speed * vt;
+      body.velocities.row(n) = v.transpose();
+    }
+  }
+  return contacts;
+}
+
+StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
+  ensure_forces(body);
+  StepStatus status;
+  const double dt = std::min(stable_time_step(body), max_dt);
+  if (!(dt > 0.0)) throw Error(fmt::format("newmark: non-positive time step {} s", dt));
+  const double h = 0.5 * dt;
+  const double t_next = time_ + dt;
+
+  // 1. v½ = vⁿ + Δt/2 M⁻¹ (f_e(xⁿ) + f_d(xⁿ, v½) + M g): linear SPD in v½.
+  Points rhs;
+  apply_gravity_and_forces(body, body.velocities, h, rhs);
+  impose_velocities(body, t_next, dt, body.velocities);
+  solve_damped(body, h, rhs, body.velocities, status);
+
+  // 2. xⁿ⁺¹ = xⁿ + Δt v½, then the ground.
+  body.positions += dt * body.velocities;
+  status.ground_contacts = enforce_ground(body);
+
+  // 3. The one elastic force evaluation, at xⁿ⁺¹, with plastic flow.
+  elastic_.evaluate(body, body.positions, dt, forces_);
+  status.plastic_elements = elastic_.plastic_elements();
+
+  // 4. vⁿ⁺¹ = v½ + Δt/2 M⁻¹ (f_e(xⁿ⁺¹) + f_d(xⁿ⁺¹, vⁿ⁺¹) + M g).
+  apply_gravity_and_forces(body, body.velocities, h, rhs);
+  for (const auto& motion : constraints_.prescribed) {
+    // The path's velocity at t_next, by a central difference over the step.
+    for (const Index n : motion.nodes) {
+      const Eigen::Vector3d rest = body.rest_positions.row(n).transpose();
+      body.velocities.row(n) =
+          ((motion.position(n, rest, t_next + h) - motion.position(n, rest, t_next - h)) / dt).transpose();
+    }
+  }
+  for (const Index n : constraints_.pinned) body.velocities.row(n).setZero();
+  solve_damped(body, h, rhs, body.velocities, status);
+  enforce_ground(body);
+
+  time_ = t_next;
+  status.dt = dt;
+  return status;
+}
+
+int NewmarkIntegrator::advance_to(Body& body, double t_end) {
+  int steps = 0;
+  while (time_ < t_end) {
+    step(body, t_end - time_);
+    ++steps;
+    // Land exactly on t_end despite round-off in the sum of steps.
+    if (t_end - time_ < 1e-12 * std::max(1.0, std::abs(t_end))) time_ = t_end;
+  }
+  return steps;
+}
+
+}  // namespace goo

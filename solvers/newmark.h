@@ -1,0 +1,70 @@
+#pragma once
+// The paper's time integrator (Wojtan & Turk 2008, sec. 3; Bridson et al.
+// 2003): elastic forces explicit, damping implicit, one elastic force
+// evaluation per step, variable time step (algorithms.md, "Time integration").
+#include "core/body.h"
+#include "core/constraints.h"
+#include "core/damping.h"
+#include "core/elastic_forces.h"
+
+namespace goo {
+
+struct NewmarkSettings {
+  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  ///< m/s²
+  double cfl = 0.5;                  ///< fraction of the elastic stability limit
+  double max_strain_per_step = 0.1;  ///< bound on ‖Ḟ‖ Δt
+  double max_time_step = 1e-2;       ///< s
+  double cg_tolerance = 1e-12;       ///< relative residual of the damping solves
+  int cg_max_iterations = 1000;
+};
+
+/// What one step did.
+struct StepStatus {
+  double dt = 0.0;           ///< the step taken, s
+  int cg_iterations = 0;     ///< both damping solves together
+  double cg_residual = 0.0;  ///< the larger relative residual of the two
+  Index plastic_elements = 0;
+  Index ground_contacts = 0;
+};
+
+class NewmarkIntegrator {
+public:
+  NewmarkIntegrator(NewmarkSettings settings, Constraints constraints);
+
+  /// Advances `body` by one step of at most `max_dt` (the time left to the
+  /// next frame, say), chosen as the minimum of the CFL bound, the
+  /// strain-rate bound and max_time_step.
+  StepStatus step(Body& body, double max_dt);
+
+  /// Steps until the time reaches t_end exactly; returns the steps taken.
+  int advance_to(Body& body, double t_end);
+
+  [[nodiscard]] double time() const { return time_; }
+  void set_time(double t) { time_ = t; }
+  /// Forget cached forces (after the body's mesh or state changed outside).
+  void invalidate() { have_forces_ = false; }
+
+  /// The time step the next step would take if unlimited by max_dt.
+  double stable_time_step(Body& body);
+
+private:
+  void ensure_forces(Body& body);
+  void apply_gravity_and_forces(const Body& body, const Points& v, double half_dt, Points& rhs) const;
+  /// Solves (M + h C) v = rhs for the free nodes, v fixed at constrained ones.
+  void solve_damped(const Body& body, double h, const Points& rhs, Points& v, StepStatus& status);
+  void impose_velocities(const Body& body, double t_next, double dt, Points& v) const;
+  Index enforce_ground(Body& body);
+
+  NewmarkSettings settings_;
+  Constraints constraints_;
+  ElasticForces elastic_;
+  Damping damping_;
+  Points forces_;  // f_e at the current positions
+  bool have_forces_ = false;
+  double time_ = 0.0;
+  std::vector<unsigned char> constrained_;
+  // CG work arrays, kept across steps.
+  Points r_, z_, p_, Ap_, Cp_;
+};
+
+}  // namespace goo

@@ -1,0 +1,196 @@
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <Eigen/Geometry>
+#include <random>
+
+#include "core/body.h"
+#include "core/damping.h"
+#include "core/elastic_forces.h"
+#include "core/error.h"
+#include "tests/common/test_common.h"
+
+namespace goo {
+namespace {
+
+constexpr ElasticModel kModels[] = {ElasticModel::neo_hookean, ElasticModel::fixed_corotated,
+                                    ElasticModel::stable_neo_hookean};
+
+Body make_cube(ElasticModel model, int cells = 3) {
+  Material m;
+  m.model = model;
+  m.youngs_modulus = 1e5;
+  m.poisson_ratio = 0.3;
+  return make_body(make_box_tets(Eigen::Vector3d::Ones(), Eigen::Vector3i::Constant(cells)), m);
+}
+
+/// The force scale of a deformation of size δ: E h² δ (h the cell size).
+double force_scale(const Body& body, double delta, int cells) {
+  return body.material.youngs_modulus * delta / (cells * cells);
+}
+
+class Forces : public ::testing::TestWithParam<ElasticModel> {};
+
+TEST_P(Forces, ZeroAtRestAndUnderRigidMotion) {
+  Body body = make_cube(GetParam());
+  ElasticForces forces;
+  Points f;
+  forces.evaluate(body, body.positions, 0.0, f);
+  EXPECT_LE(f.cwiseAbs().maxCoeff(), 1e-9 * force_scale(body, 1.0, 3));
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(2.1, Eigen::Vector3d(1, 1, -1).normalized()).toRotationMatrix();
+  Points x = body.rest_positions;
+  for (Index n = 0; n < body.num_nodes(); ++n) x.row(n) = (R * x.row(n).transpose() + Eigen::Vector3d(3, -1, 2)).transpose();
+  forces.evaluate(body, x, 0.0, f);
+  EXPECT_LE(f.cwiseAbs().maxCoeff(), 1e-9 * force_scale(body, 1.0, 3));
+}
+
+TEST_P(Forces, PatchTestAffineDeformationLeavesInteriorNodesInEquilibrium) {
+  Body body = make_cube(GetParam(), 4);
+  Eigen::Matrix3d A;
+  A << 1.1, 0.05, -0.02, 0.03, 0.95, 0.04, -0.01, 0.02, 1.05;
+  Points x = body.rest_positions;
+  for (Index n = 0; n < body.num_nodes(); ++n) x.row(n) = (A * x.row(n).transpose()).transpose();
+  ElasticForces forces;
+  Points f;
+  forces.evaluate(body, x, 0.0, f);
+  double interior_max = 0.0, boundary_max = 0.0;
+  for (Index n = 0; n < body.num_nodes(); ++n) {
+    const Eigen::Vector3d p = body.rest_positions.row(n);
+    const bool interior = (p.array() > 1e-9).all() && (p.array() < 1.0 - 1e-9).all();
+    (interior ? interior_max : boundary_max) = std::max(interior ? interior_max : boundary_max, f.row(n).norm());
+  }
+  EXPECT_GT(boundary_max, 1e-3 * force_scale(body, 0.1, 4)) << "the deformation must load the boundary";
+  // Constant stress: interior sums cancel up to round-off of the stress.
+  EXPECT_LE(interior_max, 1e-10 * force_scale(body, 1.0, 4));
+  // The net force on the whole body is zero.
+  EXPECT_LE(f.colwise().sum().norm(), 1e-10 * force_scale(body, 1.0, 4));
+}
+
+TEST_P(Forces, AreMinusTheEnergyGradient) {
+  Body body = make_cube(GetParam(), 2);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-0.08, 0.08);
+  Points x = body.rest_positions;
+  for (Index n = 0; n < body.num_nodes(); ++n)
+    for (int k = 0; k < 3; ++k) x(n, k) += u(rng);
+  ElasticForces forces;
+  Points f;
+  forces.evaluate(body, x, 0.0, f);
+  double errors[2];
+  for (int level = 0; level < 2; ++level) {
+    const double h = 1e-5 / (1 << level);
+    double error = 0.0;
+    for (Index n = 0; n < body.num_nodes(); n += 3)
+      for (int k = 0; k < 3; ++k) {
+        Points xp = x, xm = x;
+        xp(n, k) += h;
+        xm(n, k) -= h;
+        const double fd = -(elastic_energy(body, xp) - elastic_energy(body, xm)) / (2 * h);
+        error = std::max(error, std::abs(fd - f(n, k)));
+      }
+    errors[level] = error;
+  }
+  EXPECT_LT(errors[0], 1e-6 * force_scale(body, 1.0, 2));
+  if (errors[0] > 1e-8 * force_scale(body, 1.0, 2)) {
+    EXPECT_GT(errors[0] / errors[1], 3.0);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllModels, Forces, ::testing::ValuesIn(kModels),
+                         [](const auto& param_info) { return std::string(to_string(param_info.param)); });
+
+TEST(Forces, BitwiseIdenticalForOneTwoAndEightThreads) {
+  Body body = make_cube(ElasticModel::fixed_corotated, 8);
+  body.material.viscosity = 5.0;
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> u(-0.05, 0.05);
+  Points x = body.rest_positions, v = body.rest_positions;
+  for (Index n = 0; n < body.num_nodes(); ++n)
+    for (int k = 0; k < 3; ++k) {
+      x(n, k) += u(rng);
+      v(n, k) = u(rng);
+    }
+  std::vector<Points> results;
+  for (const int threads : {1, 2, 8}) {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    ElasticForces forces;
+    Damping damping;
+    Points f, fd;
+    forces.evaluate(body, x, 0.0, f);
+    damping.apply(body, forces.elastic_deformation(), forces.inverse_plastic_deformation(), v, fd);
+    Points both(f.rows(), 6);
+    both << f, fd;
+    results.push_back(both);
+  }
+  EXPECT_TRUE(results[0] == results[1]);
+  EXPECT_TRUE(results[0] == results[2]);
+}
+
+TEST(Damping, ZeroForRigidMotionOfADeformedBodyTorqueFreeAndDissipative) {
+  Body body = make_cube(ElasticModel::fixed_corotated, 3);
+  body.material.viscosity = 10.0;
+  // A deformed (sheared, stretched) configuration, not the rest shape.
+  Eigen::Matrix3d A;
+  A << 1.3, 0.2, 0.0, -0.1, 0.8, 0.15, 0.05, 0.0, 1.1;
+  Points x = body.rest_positions;
+  for (Index n = 0; n < body.num_nodes(); ++n) x.row(n) = (A * x.row(n).transpose()).transpose();
+  ElasticForces forces;
+  Points f;
+  forces.evaluate(body, x, 0.0, f);
+  Damping damping;
+  auto apply = [&](const Points& v, Points& out) {
+    damping.apply(body, forces.elastic_deformation(), forces.inverse_plastic_deformation(), v, out);
+  };
+  // A rigid velocity field v = ω × x + c dissipates nothing.
+  const Eigen::Vector3d omega(0.3, -1.2, 0.7), c(1, 2, 3);
+  Points v(body.num_nodes(), 3);
+  for (Index n = 0; n < body.num_nodes(); ++n) v.row(n) = (omega.cross(Eigen::Vector3d(x.row(n))) + c).transpose();
+  Points fd;
+  apply(v, fd);
+  // Scale of a damping force for unit strain rate: β h² (h = 1/3).
+  const double scale = 10.0 / 9.0;
+  EXPECT_LE(fd.cwiseAbs().maxCoeff(), 1e-12 * scale * omega.norm());
+  // Any field: the damping forces sum to zero and exert no torque.
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Points a(body.num_nodes(), 3), b(body.num_nodes(), 3), fa, fb;
+  for (Index n = 0; n < body.num_nodes(); ++n)
+    for (int k = 0; k < 3; ++k) {
+      a(n, k) = u(rng);
+      b(n, k) = u(rng);
+    }
+  apply(a, fa);
+  apply(b, fb);
+  Eigen::Vector3d torque = Eigen::Vector3d::Zero();
+  for (Index n = 0; n < body.num_nodes(); ++n) torque += Eigen::Vector3d(x.row(n)).cross(Eigen::Vector3d(fa.row(n)));
+  const double magnitude = fa.cwiseAbs().maxCoeff();
+  EXPECT_LE(fa.colwise().sum().norm(), 1e-12 * magnitude * body.num_nodes());
+  EXPECT_LE(torque.norm(), 1e-12 * magnitude * body.num_nodes());
+  // Dissipative and symmetric: aᵀ f(a) = −aᵀ C a < 0, aᵀ C b = bᵀ C a.
+  EXPECT_LT(a.cwiseProduct(fa).sum(), 0.0);
+  EXPECT_NEAR(a.cwiseProduct(fb).sum(), b.cwiseProduct(fa).sum(), 1e-12 * std::abs(a.cwiseProduct(fa).sum()));
+}
+
+TEST(Body, LumpedMassesAndIncidence) {
+  Body body = make_cube(ElasticModel::fixed_corotated, 3);
+  EXPECT_NEAR(body.masses.sum(), body.material.density * 1.0, 1e-12 * body.material.density);
+  EXPECT_NEAR(body.rest_volumes.sum(), 1.0, 1e-14);
+  EXPECT_EQ(body.incidence.corners.size(), 4U * static_cast<std::size_t>(body.num_elements()));
+  for (Index e = 0; e < body.num_elements(); ++e) EXPECT_GT(body.rest_volumes[e], 0.0);
+}
+
+TEST(TetMesh, CheckRefusesBadElementsAndReorients) {
+  TetMesh mesh = make_box_tets(Eigen::Vector3d::Ones(), Eigen::Vector3i::Ones());
+  std::swap(mesh.tets(2, 1), mesh.tets(2, 2));
+  EXPECT_EQ(check_and_orient(mesh, "m"), 1);
+  TetMesh bad = mesh;
+  bad.tets(3, 3) = 99;
+  EXPECT_THROW(check_and_orient(bad, "m"), Error);
+  bad = mesh;
+  bad.positions.row(7) = bad.positions.row(0) + 0.5 * (bad.positions.row(1) - bad.positions.row(0));
+  bad.tets.row(0) << 0, 1, 7, 2;  // 7 on the edge 0–1: zero volume
+  EXPECT_THROW(check_and_orient(bad, "m"), Error);
+}
+
+}  // namespace
+}  // namespace goo
