@@ -46,7 +46,8 @@ void BM_ElasticForces(benchmark::State& state) {
   const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
   goo::Material material;
   material.model = goo::ElasticModel::fixed_corotated;
-  goo::Body body = goo::make_body(goo::make_box_tets(Eigen::Vector3d::Ones(), Eigen::Vector3i::Constant(cells)), material);
+  goo::Body body =
+      goo::make_body(goo::make_box_tets(Eigen::Vector3d::Ones(), Eigen::Vector3i::Constant(cells)), material);
   std::mt19937 rng(2);
   std::uniform_real_distribution<double> u(-0.2 / cells, 0.2 / cells);
   goo::Points x = body.rest_positions;
@@ -64,6 +65,12 @@ void BM_ElasticForces(benchmark::State& state) {
   state.counters["threads"] = static_cast<double>(threads);
 }
 // 6·12³ = 10,368 and 6·26³ = 105,456 tets.
-BENCHMARK(BM_ElasticForces)->Args({12, 1})->Args({12, 2})->Args({26, 1})->Args({26, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_ElasticForces)
+    ->Args({12, 1})
+    ->Args({12, 2})
+    ->Args({26, 1})
+    ->Args({26, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace

@@ -18,7 +18,8 @@ NodeIncidence NodeIncidence::build(const Tets& tets, Index num_nodes) {
   std::vector<Index> fill(inc.offsets.begin(), inc.offsets.end() - 1);
   // Elements in increasing order, so each node's corners are sorted.
   for (Index e = 0; e < tets.rows(); ++e)
-    for (int k = 0; k < 4; ++k) inc.corners[static_cast<std::size_t>(fill[static_cast<std::size_t>(tets(e, k))]++)] = 4 * e + k;
+    for (int k = 0; k < 4; ++k)
+      inc.corners[static_cast<std::size_t>(fill[static_cast<std::size_t>(tets(e, k))]++)] = 4 * e + k;
   return inc;
 }
 
@@ -59,7 +60,8 @@ void lump_masses(Body& body) {
   // Gather in incidence order: deterministic and free of write conflicts.
   for (Index n = 0; n < body.num_nodes(); ++n) {
     double m = 0.0;
-    for (Index c = body.incidence.offsets[static_cast<std::size_t>(n)]; c < body.incidence.offsets[static_cast<std::size_t>(n) + 1]; ++c) {
+    for (Index c = body.incidence.offsets[static_cast<std::size_t>(n)];
+         c < body.incidence.offsets[static_cast<std::size_t>(n) + 1]; ++c) {
       const Index e = body.incidence.corners[static_cast<std::size_t>(c)] / 4;
       m += 0.25 * rho * body.rest_volumes[e] * body.Fp[static_cast<std::size_t>(e)].determinant();
     }

@@ -7,12 +7,14 @@
 
 namespace goo {
 namespace {
-std::size_t at(Index i) { return static_cast<std::size_t>(i); }
+std::size_t at(Index i) {
+  return static_cast<std::size_t>(i);
+}
 constexpr Index kGrain = 512;
 }  // namespace
 
-void Damping::apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe, const std::vector<Eigen::Matrix3d>& Fp_inv,
-                    const Points& v, Points& out) {
+void Damping::apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
+                    const std::vector<Eigen::Matrix3d>& Fp_inv, const Points& v, Points& out) {
   const Index ne = body.num_elements();
   element_forces_.resize(at(ne));
   const double beta = body.material.viscosity;

@@ -16,14 +16,14 @@
 namespace goo {
 
 class Damping {
-public:
+ public:
   /// out (#N×3) = −C v: the viscous forces for nodal velocities v, with the
   /// elastic deformation Fe and Fp⁻¹ of each element frozen (ElasticForces
   /// records both at each evaluation).
   void apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe, const std::vector<Eigen::Matrix3d>& Fp_inv,
              const Points& v, Points& out);
 
-private:
+ private:
   std::vector<Matrix34> element_forces_;
 };
 

@@ -11,7 +11,9 @@
 namespace goo {
 namespace {
 
-std::size_t at(Index i) { return static_cast<std::size_t>(i); }
+std::size_t at(Index i) {
+  return static_cast<std::size_t>(i);
+}
 
 /// Fixed grain: work splits the same way whatever the thread count (the
 /// results do not depend on it anyway; this keeps scheduling cheap).

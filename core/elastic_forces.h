@@ -16,7 +16,7 @@ using Matrix34 = Eigen::Matrix<double, 3, 4>;
 void gather_to_nodes(const NodeIncidence& incidence, const std::vector<Matrix34>& per_element, Points& out);
 
 class ElasticForces {
-public:
+ public:
   /// f (#N×3, N) = elastic forces at positions x. If plastic_dt > 0, each
   /// element first flows plastically for a step of that length (reusing its
   /// SVD), updating body.Fp and body.alpha. Records each element's Fe and
@@ -36,7 +36,7 @@ public:
   /// Elements that flowed at the last evaluation.
   [[nodiscard]] Index plastic_elements() const { return plastic_count_; }
 
-private:
+ private:
   std::vector<Matrix34> element_forces_;
   std::vector<Eigen::Matrix3d> Fe_;
   std::vector<Eigen::Matrix3d> Fp_inv_;

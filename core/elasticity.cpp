@@ -28,7 +28,9 @@ struct ContinuedLog {
 };
 
 /// Products of the other two singular values: ∂J/∂σ_i.
-Eigen::Vector3d cofactors(const Eigen::Vector3d& s) { return {s[1] * s[2], s[0] * s[2], s[0] * s[1]}; }
+Eigen::Vector3d cofactors(const Eigen::Vector3d& s) {
+  return {s[1] * s[2], s[0] * s[2], s[0] * s[1]};
+}
 
 }  // namespace
 
@@ -116,8 +118,7 @@ Matrix9d first_piola_derivative(const IsotropicEnergy& energy, const Svd3& svd) 
       const double diff = s[i] - s[j];
       // (ψ_i − ψ_j)/(σ_i − σ_j); its limit for σ_i → σ_j is ψ_ii − ψ_ij. Near
       // the switch, cancellation and truncation errors are both ≈ 1e-6.
-      const double q_minus =
-          std::abs(diff) > 1e-6 * scale ? (g[i] - g[j]) / diff : 0.5 * (H(i, i) + H(j, j)) - H(i, j);
+      const double q_minus = std::abs(diff) > 1e-6 * scale ? (g[i] - g[j]) / diff : 0.5 * (H(i, i) + H(j, j)) - H(i, j);
       double sum = s[i] + s[j];  // ≥ 0 because σ_i ≥ |σ_j| for i < j
       sum = std::max(sum, 1e-6 * scale);
       const double q_plus = (g[i] + g[j]) / sum;

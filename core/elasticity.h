@@ -14,7 +14,7 @@ using Matrix9d = Eigen::Matrix<double, 9, 9>;
 
 /// ψ(σ) of one model with its Lamé parameters, in Pa (J/m³).
 class IsotropicEnergy {
-public:
+ public:
   /// Threshold below which the neo-Hookean's ln σ is continued by its
   /// second-order Taylor expansion (an energy-consistent form of Irving et
   /// al. 2004's extrapolation): exactly neo-Hookean for every σ_i ≥ 0.2.
@@ -34,7 +34,7 @@ public:
   [[nodiscard]] double mu() const { return mu_; }
   [[nodiscard]] double lambda() const { return lambda_; }
 
-private:
+ private:
   ElasticModel model_;
   double mu_;
   double lambda_;  // for stable neo-Hookean: λ + μ, so its linearisation is that of (μ, λ)

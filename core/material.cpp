@@ -10,9 +10,12 @@ namespace goo {
 
 std::string_view to_string(ElasticModel model) {
   switch (model) {
-    case ElasticModel::neo_hookean: return "neo_hookean";
-    case ElasticModel::fixed_corotated: return "fixed_corotated";
-    case ElasticModel::stable_neo_hookean: return "stable_neo_hookean";
+    case ElasticModel::neo_hookean:
+      return "neo_hookean";
+    case ElasticModel::fixed_corotated:
+      return "fixed_corotated";
+    case ElasticModel::stable_neo_hookean:
+      return "stable_neo_hookean";
   }
   return "?";
 }
@@ -22,8 +25,8 @@ ElasticModel elastic_model_from_string(std::string_view name) {
        {ElasticModel::neo_hookean, ElasticModel::fixed_corotated, ElasticModel::stable_neo_hookean}) {
     if (name == to_string(m)) return m;
   }
-  throw Error(fmt::format("unknown elastic model '{}' (expected neo_hookean, fixed_corotated or stable_neo_hookean)",
-                          name));
+  throw Error(
+      fmt::format("unknown elastic model '{}' (expected neo_hookean, fixed_corotated or stable_neo_hookean)", name));
 }
 
 void validate(const Material& m, std::string_view where) {

@@ -18,14 +18,14 @@ std::string_view to_string(ElasticModel model);
 ElasticModel elastic_model_from_string(std::string_view name);
 
 struct Material {
-  double density = 1000.0;        ///< ρ, kg/m³
-  double youngs_modulus = 1e5;    ///< E, Pa
-  double poisson_ratio = 0.3;     ///< ν_P, in [0, 0.5)
-  double viscosity = 0.0;         ///< β, Pa·s (corotated Rayleigh damping)
+  double density = 1000.0;                                        ///< ρ, kg/m³
+  double youngs_modulus = 1e5;                                    ///< E, Pa
+  double poisson_ratio = 0.3;                                     ///< ν_P, in [0, 0.5)
+  double viscosity = 0.0;                                         ///< β, Pa·s (corotated Rayleigh damping)
   double yield_stress = std::numeric_limits<double>::infinity();  ///< PY, Pa (∞: purely elastic)
-  double flow_rate = 0.0;         ///< ν, 1/s (per unit time: rate-independent)
-  double hardening = 0.0;         ///< K, dimensionless
-  double min_mass_fraction = 0.0; ///< m_min as a fraction of a full node's mass (W&T sec. 6)
+  double flow_rate = 0.0;                                         ///< ν, 1/s (per unit time: rate-independent)
+  double hardening = 0.0;                                         ///< K, dimensionless
+  double min_mass_fraction = 0.0;  ///< m_min as a fraction of a full node's mass (W&T sec. 6)
   ElasticModel model = ElasticModel::fixed_corotated;
 
   /// Lamé parameters: μ = E / (2(1+ν)), λ = E ν / ((1+ν)(1−2ν)).

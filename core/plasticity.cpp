@@ -5,8 +5,8 @@
 
 namespace goo {
 
-bool plastic_flow(const Material& material, const IsotropicEnergy& energy, double dt, Svd3& svd,
-                  Eigen::Matrix3d& Fp, double& alpha) {
+bool plastic_flow(const Material& material, const IsotropicEnergy& energy, double dt, Svd3& svd, Eigen::Matrix3d& Fp,
+                  double& alpha) {
   const Eigen::Vector3d& sigma = svd.sigma;
   if (!(sigma[2] > kPlasticMinSingularValue)) return false;
   const Eigen::Vector3d P_hat = energy.dpsi(sigma);

@@ -19,7 +19,7 @@ inline constexpr double kPlasticMinSingularValue = 0.05;
 /// Fp ← V (Σ*)^γ Vᵀ Fp with Σ* = det(Σ)^(−1/3) Σ (renormalised to det 1, so
 /// det Fp never changes), α ← α + γ s, and svd.sigma becomes the singular
 /// values of the new Fe (U and V are unchanged). Returns true if it flowed.
-bool plastic_flow(const Material& material, const IsotropicEnergy& energy, double dt, Svd3& svd,
-                  Eigen::Matrix3d& Fp, double& alpha);
+bool plastic_flow(const Material& material, const IsotropicEnergy& energy, double dt, Svd3& svd, Eigen::Matrix3d& Fp,
+                  double& alpha);
 
 }  // namespace goo

@@ -18,8 +18,8 @@ double signed_volume(const Points& x, const Tets& tets, Index e) {
 
 TetMesh make_box_tets(const Eigen::Vector3d& size, const Eigen::Vector3i& cells, const Eigen::Vector3d& origin) {
   if (!(cells.array() >= 1).all()) {
-    throw Error(fmt::format("box tets: cells must be at least 1 per axis, got ({}, {}, {})", cells.x(), cells.y(),
-                            cells.z()));
+    throw Error(
+        fmt::format("box tets: cells must be at least 1 per axis, got ({}, {}, {})", cells.x(), cells.y(), cells.z()));
   }
   if (!(size.array() > 0.0).all() || !size.allFinite()) {
     throw Error(fmt::format("box tets: size must be positive, got ({}, {}, {})", size.x(), size.y(), size.z()));
@@ -81,7 +81,8 @@ Index check_and_orient(TetMesh& mesh, std::string_view source) {
     // A zero volume to round-off: |det| below a few ε times the product of
     // the edge lengths that span it.
     double scale = 1.0;
-    for (int k = 1; k < 4; ++k) scale *= (mesh.positions.row(mesh.tets(e, k)) - mesh.positions.row(mesh.tets(e, 0))).norm();
+    for (int k = 1; k < 4; ++k)
+      scale *= (mesh.positions.row(mesh.tets(e, k)) - mesh.positions.row(mesh.tets(e, 0))).norm();
     if (std::abs(volume) <= 8.0 * std::numeric_limits<double>::epsilon() * scale / 6.0) {
       throw Error(fmt::format("{}: tetrahedron {} has zero volume", source, e));
     }

@@ -10,10 +10,14 @@
 namespace goo {
 namespace {
 
-std::size_t at(Index i) { return static_cast<std::size_t>(i); }
+std::size_t at(Index i) {
+  return static_cast<std::size_t>(i);
+}
 
 /// Σ a∘b over all entries, in a fixed order (deterministic).
-double dot(const Points& a, const Points& b) { return a.cwiseProduct(b).sum(); }
+double dot(const Points& a, const Points& b) {
+  return a.cwiseProduct(b).sum();
+}
 
 }  // namespace
 
@@ -49,8 +53,7 @@ double NewmarkIntegrator::stable_time_step(Body& body) {
   return dt;
 }
 
-void NewmarkIntegrator::apply_gravity_and_forces(const Body& body, const Points& v, double half_dt,
-                                                 Points& rhs) const {
+void NewmarkIntegrator::apply_gravity_and_forces(const Body& body, const Points& v, double half_dt, Points& rhs) const {
   // rhs = M v + h (f_e + M g)
   rhs.resize(body.num_nodes(), 3);
   for (Index n = 0; n < body.num_nodes(); ++n) {

@@ -11,10 +11,10 @@ namespace goo {
 
 struct NewmarkSettings {
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  ///< m/s²
-  double cfl = 0.5;                  ///< fraction of the elastic stability limit
-  double max_strain_per_step = 0.1;  ///< bound on ‖Ḟ‖ Δt
-  double max_time_step = 1e-2;       ///< s
-  double cg_tolerance = 1e-12;       ///< relative residual of the damping solves
+  double cfl = 0.5;                                            ///< fraction of the elastic stability limit
+  double max_strain_per_step = 0.1;                            ///< bound on ‖Ḟ‖ Δt
+  double max_time_step = 1e-2;                                 ///< s
+  double cg_tolerance = 1e-12;                                 ///< relative residual of the damping solves
   int cg_max_iterations = 1000;
 };
 
@@ -28,7 +28,7 @@ struct StepStatus {
 };
 
 class NewmarkIntegrator {
-public:
+ public:
   NewmarkIntegrator(NewmarkSettings settings, Constraints constraints);
 
   /// Advances `body` by one step of at most `max_dt` (the time left to the
@@ -47,7 +47,7 @@ public:
   /// The time step the next step would take if unlimited by max_dt.
   double stable_time_step(Body& body);
 
-private:
+ private:
   void ensure_forces(Body& body);
   void apply_gravity_and_forces(const Body& body, const Points& v, double half_dt, Points& rhs) const;
   /// Solves (M + h C) v = rhs for the free nodes, v fixed at constrained ones.

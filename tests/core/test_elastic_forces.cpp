@@ -39,7 +39,8 @@ TEST_P(Forces, ZeroAtRestAndUnderRigidMotion) {
   EXPECT_LE(f.cwiseAbs().maxCoeff(), 1e-9 * force_scale(body, 1.0, 3));
   const Eigen::Matrix3d R = Eigen::AngleAxisd(2.1, Eigen::Vector3d(1, 1, -1).normalized()).toRotationMatrix();
   Points x = body.rest_positions;
-  for (Index n = 0; n < body.num_nodes(); ++n) x.row(n) = (R * x.row(n).transpose() + Eigen::Vector3d(3, -1, 2)).transpose();
+  for (Index n = 0; n < body.num_nodes(); ++n)
+    x.row(n) = (R * x.row(n).transpose() + Eigen::Vector3d(3, -1, 2)).transpose();
   forces.evaluate(body, x, 0.0, f);
   EXPECT_LE(f.cwiseAbs().maxCoeff(), 1e-9 * force_scale(body, 1.0, 3));
 }

@@ -29,7 +29,9 @@ Eigen::Matrix3d random_F(std::mt19937& rng, bool inverted) {
   return F;
 }
 
-Eigen::Matrix3d P_of(const IsotropicEnergy& energy, const Eigen::Matrix3d& F) { return first_piola(energy, svd3(F)); }
+Eigen::Matrix3d P_of(const IsotropicEnergy& energy, const Eigen::Matrix3d& F) {
+  return first_piola(energy, svd3(F));
+}
 
 class Model : public ::testing::TestWithParam<ElasticModel> {};
 
@@ -59,7 +61,8 @@ TEST_P(Model, LinearisesToLinearElasticity) {
   m.poisson_ratio = 0.35;
   Eigen::Matrix3d H;
   H << 0.3, -0.2, 0.5, 0.1, -0.4, 0.2, 0.7, 0.3, 0.1;
-  const Eigen::Matrix3d linear = 2.0 * m.mu() * 0.5 * (H + H.transpose()) + m.lambda() * H.trace() * Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d linear =
+      2.0 * m.mu() * 0.5 * (H + H.transpose()) + m.lambda() * H.trace() * Eigen::Matrix3d::Identity();
   double previous = 0.0;
   for (const double eps : {1e-3, 5e-4, 2.5e-4}) {
     const double error = (P_of(e, Eigen::Matrix3d::Identity() + eps * H) / eps - linear).norm();
@@ -143,8 +146,8 @@ TEST(NeoHookean, IsExactlyTheStandardEnergyAboveTheThreshold) {
   const IsotropicEnergy e = make(ElasticModel::neo_hookean);
   const Eigen::Vector3d s(1.3, 0.8, 0.25);
   const double J = s.prod();
-  const double expected = 0.5 * e.mu() * (s.squaredNorm() - 3) - e.mu() * std::log(J) +
-                          0.5 * e.lambda() * std::log(J) * std::log(J);
+  const double expected =
+      0.5 * e.mu() * (s.squaredNorm() - 3) - e.mu() * std::log(J) + 0.5 * e.lambda() * std::log(J) * std::log(J);
   EXPECT_NEAR(e.psi(s), expected, 1e-12 * std::abs(expected));
 }
 

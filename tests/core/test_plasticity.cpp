@@ -19,7 +19,8 @@ Material plastic_material(double yield, double flow_rate, double hardening) {
 const Eigen::Matrix3d kStretch = (Eigen::Matrix3d() << 1.3, 0.1, 0.0, 0.0, 0.85, 0.05, 0.02, 0.0, 0.95).finished();
 
 /// Holds F fixed and lets Fp flow for `steps` steps covering `duration`.
-Eigen::Matrix3d flow(const Material& m, double duration, int steps, double* alpha_out = nullptr, int* flowed = nullptr) {
+Eigen::Matrix3d flow(const Material& m, double duration, int steps, double* alpha_out = nullptr,
+                     int* flowed = nullptr) {
   const IsotropicEnergy energy(m);
   Eigen::Matrix3d Fp = Eigen::Matrix3d::Identity();
   double alpha = 0.0;

@@ -47,9 +47,20 @@ TEST(Svd3, RandomMatrices) {
 TEST(Svd3, RepeatedZeroAndInvertedSingularValues) {
   std::mt19937 rng(2);
   const std::vector<Eigen::Vector3d> spectra = {
-      {1, 1, 1},   {2, 2, 1},     {2, 1, 1},       {3, 2, 0},   {1, 0, 0},         {0, 0, 0},
-      {1, 1, -1},  {2, 1, -0.5},  {1, 0.5, -0.5},  {1, 1, 0},   {1e-8, 1e-8, 1e-8}, {5, 1e-9, -1e-9},
-      {1, 1 + 1e-15, 1 - 1e-15}, {1e100, 1, 1e-100},
+      {1, 1, 1},
+      {2, 2, 1},
+      {2, 1, 1},
+      {3, 2, 0},
+      {1, 0, 0},
+      {0, 0, 0},
+      {1, 1, -1},
+      {2, 1, -0.5},
+      {1, 0.5, -0.5},
+      {1, 1, 0},
+      {1e-8, 1e-8, 1e-8},
+      {5, 1e-9, -1e-9},
+      {1, 1 + 1e-15, 1 - 1e-15},
+      {1e100, 1, 1e-100},
   };
   for (const auto& spectrum : spectra)
     for (int trial = 0; trial < 20; ++trial) {

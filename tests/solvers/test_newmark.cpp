@@ -41,7 +41,9 @@ void kick(Body& body, unsigned seed) {
   }
 }
 
-double total_energy(const Body& body) { return kinetic_energy(body) + elastic_energy(body, body.positions); }
+double total_energy(const Body& body) {
+  return kinetic_energy(body) + elastic_energy(body, body.positions);
+}
 
 TEST(Newmark, FreeBodyConservesLinearAndAngularMomentumToRoundOff) {
   Body body = make_cube();
@@ -159,7 +161,8 @@ INSTANTIATE_TEST_SUITE_P(AllModels, Recovery, ::testing::ValuesIn(kModels),
 /// Kinetic + elastic + gravitational energy.
 double mechanical_energy(const Body& body, const Eigen::Vector3d& gravity) {
   double potential = 0.0;
-  for (Index n = 0; n < body.num_nodes(); ++n) potential -= body.masses[n] * gravity.dot(Eigen::Vector3d(body.positions.row(n)));
+  for (Index n = 0; n < body.num_nodes(); ++n)
+    potential -= body.masses[n] * gravity.dot(Eigen::Vector3d(body.positions.row(n)));
   return total_energy(body) + potential;
 }
 
