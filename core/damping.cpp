@@ -1,4 +1,5 @@
 #include "core/damping.h"
+#include "core/parallel.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -6,19 +7,13 @@
 #include <algorithm>
 
 namespace goo {
-namespace {
-std::size_t at(Index i) {
-  return static_cast<std::size_t>(i);
-}
-constexpr Index kGrain = 512;
-}  // namespace
 
 void Damping::apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
                     const std::vector<Eigen::Matrix3d>& Fp_inv, const Points& v, Points& out) {
   const Index ne = body.num_elements();
   element_forces_.resize(at(ne));
   const double beta = body.material.viscosity;
-  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kGrain), [&](const tbb::blocked_range<Index>& range) {
+  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
     for (Index e = range.begin(); e != range.end(); ++e) {
       const Eigen::Matrix3d& G = Fe[at(e)];
       const Eigen::Matrix3d& Q = Fp_inv[at(e)];

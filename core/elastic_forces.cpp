@@ -1,4 +1,5 @@
 #include "core/elastic_forces.h"
+#include "core/parallel.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -9,17 +10,6 @@
 #include "core/surface_geometry.h"
 
 namespace goo {
-namespace {
-
-std::size_t at(Index i) {
-  return static_cast<std::size_t>(i);
-}
-
-/// Fixed grain: work splits the same way whatever the thread count (the
-/// results do not depend on it anyway; this keeps scheduling cheap).
-constexpr Index kGrain = 512;
-
-}  // namespace
 
 Eigen::Matrix3d deformation_gradient(const Body& body, const Points& x, Index e) {
   const auto& t = body.tets;
@@ -34,16 +24,17 @@ Eigen::Matrix3d deformation_gradient(const Body& body, const Points& x, Index e)
 void gather_to_nodes(const NodeIncidence& incidence, const std::vector<Matrix34>& per_element, Points& out) {
   const auto num_nodes = static_cast<Index>(incidence.offsets.size() - 1);
   out.resize(num_nodes, 3);
-  tbb::parallel_for(tbb::blocked_range<Index>(0, num_nodes, kGrain), [&](const tbb::blocked_range<Index>& range) {
-    for (Index n = range.begin(); n != range.end(); ++n) {
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      for (Index c = incidence.offsets[at(n)]; c < incidence.offsets[at(n) + 1]; ++c) {
-        const Index corner = incidence.corners[at(c)];
-        sum += per_element[at(corner / 4)].col(corner % 4);
-      }
-      out.row(n) = sum.transpose();
-    }
-  });
+  tbb::parallel_for(tbb::blocked_range<Index>(0, num_nodes, kParallelGrain),
+                    [&](const tbb::blocked_range<Index>& range) {
+                      for (Index n = range.begin(); n != range.end(); ++n) {
+                        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+                        for (Index c = incidence.offsets[at(n)]; c < incidence.offsets[at(n) + 1]; ++c) {
+                          const Index corner = incidence.corners[at(c)];
+                          sum += per_element[at(corner / 4)].col(corner % 4);
+                        }
+                        out.row(n) = sum.transpose();
+                      }
+                    });
 }
 
 void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Points& f) {
@@ -58,7 +49,7 @@ void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Poi
   const bool plastic = plastic_dt > 0.0 && material.plastic() && material.flow_rate > 0.0;
   const double modulus = energy.lambda() + 2.0 * energy.mu();
 
-  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kGrain), [&](const tbb::blocked_range<Index>& range) {
+  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
     for (Index e = range.begin(); e != range.end(); ++e) {
       const Eigen::Matrix3d& Dm_inv = body.Dm_inv[at(e)];
       Eigen::Matrix3d& Fp = body.Fp[at(e)];
