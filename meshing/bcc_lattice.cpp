@@ -1,0 +1,155 @@
+#include "meshing/bcc_lattice.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "core/error.h"
+
+namespace goo {
+namespace {
+
+/// The corners (u, v) of a face in its own axes b = a+1, c = a+2, in order
+/// around it; edge e joins corner e and corner e+1.
+constexpr std::array<std::array<int, 2>, 4> kFaceCorners = {{{0, 0}, {1, 0}, {1, 1}, {0, 1}}};
+
+/// Nodes of (axis, edge) relative to the lower cell's minimum corner, in
+/// units of h, before orientation: lower centre, upper centre, edge ends.
+std::array<Eigen::Vector3d, 4> local_nodes(int axis, int edge) {
+  const int b = (axis + 1) % 3, c = (axis + 2) % 3;
+  const Eigen::Vector3d centre = Eigen::Vector3d::Constant(0.5);
+  std::array<Eigen::Vector3d, 4> out;
+  out[0] = centre;
+  out[1] = centre + Eigen::Vector3d::Unit(axis);
+  for (int k = 0; k < 2; ++k) {
+    const auto& uv = kFaceCorners[static_cast<std::size_t>((edge + k) % 4)];
+    out[static_cast<std::size_t>(2 + k)] =
+        Eigen::Vector3d::Unit(axis) + uv[0] * Eigen::Vector3d::Unit(b) + uv[1] * Eigen::Vector3d::Unit(c);
+  }
+  return out;
+}
+
+}  // namespace
+
+BccLattice::BccLattice(const Eigen::Vector3d& origin, double spacing, const Eigen::Vector3i& cells)
+    : origin_(origin), h_(spacing), cells_(cells) {
+  if (!(spacing > 0.0) || !std::isfinite(spacing))
+    throw Error(fmt::format("lattice spacing must be positive, got {}", spacing));
+  if (!(cells.array() >= 1).all()) {
+    throw Error(fmt::format("a lattice block needs at least one cell per axis, got ({}, {}, {})", cells.x(), cells.y(),
+                            cells.z()));
+  }
+  num_corners_ = (cells_.cast<Key>().array() + 1).prod();
+  for (int axis = 0; axis < 3; ++axis)
+    for (int edge = 0; edge < 4; ++edge) {
+      auto x = local_nodes(axis, edge);
+      Eigen::Matrix3d D;
+      for (int k = 0; k < 3; ++k) D.col(k) = x[static_cast<std::size_t>(k) + 1] - x[0];
+      const auto shape = static_cast<std::size_t>(4 * axis + edge);
+      swap_[shape] = D.determinant() < 0.0;
+      if (swap_[shape]) D.col(1).swap(D.col(2));
+      Dm_inv_[shape] = D.inverse() / h_;
+    }
+}
+
+BccLattice::Key BccLattice::corner_key(const Eigen::Vector3i& ijk) const {
+  return ijk.x() + (cells_.x() + Key{1}) * (ijk.y() + (cells_.y() + Key{1}) * ijk.z());
+}
+
+BccLattice::Key BccLattice::centre_key(const Eigen::Vector3i& ijk) const {
+  return num_corners_ + ijk.x() + Key{cells_.x()} * (ijk.y() + Key{cells_.y()} * ijk.z());
+}
+
+Eigen::Vector3d BccLattice::position(Key node) const {
+  const bool centre = is_centre(node);
+  Key rest = centre ? node - num_corners_ : node;
+  const Eigen::Matrix<Key, 3, 1> n =
+      centre ? cells_.cast<Key>() : Eigen::Matrix<Key, 3, 1>(cells_.cast<Key>().array() + 1);
+  const Key i = rest % n.x();
+  rest /= n.x();
+  const Key j = rest % n.y();
+  const Key k = rest / n.y();
+  const double shift = centre ? 0.5 : 0.0;
+  return origin_ + h_ * Eigen::Vector3d(static_cast<double>(i) + shift, static_cast<double>(j) + shift,
+                                        static_cast<double>(k) + shift);
+}
+
+BccLattice::Key BccLattice::tet_key(const Eigen::Vector3i& cell, int axis, int edge) const {
+  const Key linear = cell.x() + Key{cells_.x()} * (cell.y() + Key{cells_.y()} * cell.z());
+  return 12 * linear + 4 * axis + edge;
+}
+
+namespace {
+struct Decoded {
+  Eigen::Vector3i cell;
+  int axis, edge;
+};
+Decoded decode(BccLattice::Key tet, const Eigen::Vector3i& cells) {
+  const auto shape = static_cast<int>(tet % 12);
+  BccLattice::Key linear = tet / 12;
+  Decoded d;
+  d.axis = shape / 4;
+  d.edge = shape % 4;
+  d.cell.x() = static_cast<int>(linear % cells.x());
+  linear /= cells.x();
+  d.cell.y() = static_cast<int>(linear % cells.y());
+  d.cell.z() = static_cast<int>(linear / cells.y());
+  return d;
+}
+}  // namespace
+
+bool BccLattice::valid(Key tet) const {
+  if (tet < 0 || tet >= num_tet_keys()) return false;
+  const Decoded d = decode(tet, cells_);
+  return d.cell[d.axis] + 1 < cells_[d.axis];
+}
+
+std::array<BccLattice::Key, 4> BccLattice::tet_nodes(Key tet) const {
+  const Decoded d = decode(tet, cells_);
+  const int b = (d.axis + 1) % 3, c = (d.axis + 2) % 3;
+  std::array<Key, 4> nodes{};
+  nodes[0] = centre_key(d.cell);
+  nodes[1] = centre_key(d.cell + Eigen::Vector3i::Unit(d.axis));
+  for (int k = 0; k < 2; ++k) {
+    const auto& uv = kFaceCorners[static_cast<std::size_t>((d.edge + k) % 4)];
+    nodes[static_cast<std::size_t>(2 + k)] = corner_key(
+        d.cell + Eigen::Vector3i::Unit(d.axis) + uv[0] * Eigen::Vector3i::Unit(b) + uv[1] * Eigen::Vector3i::Unit(c));
+  }
+  if (swap_[static_cast<std::size_t>(tet % 12)]) std::swap(nodes[2], nodes[3]);
+  return nodes;
+}
+
+Eigen::Vector3i BccLattice::cell_of(const Eigen::Vector3d& p) const {
+  const Eigen::Vector3d q = (p - origin_) / h_;
+  return {static_cast<int>(std::floor(q.x())), static_cast<int>(std::floor(q.y())),
+          static_cast<int>(std::floor(q.z()))};
+}
+
+std::optional<BccLattice::Key> BccLattice::locate(const Eigen::Vector3d& p) const {
+  const Eigen::Vector3d q = (p - origin_) / h_;
+  if (!q.allFinite()) return std::nullopt;
+  const Eigen::Vector3i cell = cell_of(p);
+  if ((cell.array() < 0).any() || (cell.array() >= cells_.array()).any()) return std::nullopt;
+  const Eigen::Vector3d d = q - cell.cast<double>() - Eigen::Vector3d::Constant(0.5);
+  int axis = 0;
+  d.cwiseAbs().maxCoeff(&axis);
+  Eigen::Vector3i lower = cell;
+  if (d[axis] < 0.0) lower[axis] -= 1;  // the pyramid toward the lower face
+  if (lower[axis] < 0 || lower[axis] + 1 >= cells_[axis]) return std::nullopt;
+  const int b = (axis + 1) % 3, c = (axis + 2) % 3;
+  int edge = 0;
+  if (std::abs(d[b]) >= std::abs(d[c])) {
+    edge = d[b] >= 0.0 ? 1 : 3;  // the face edge at u = 1 or u = 0
+  } else {
+    edge = d[c] >= 0.0 ? 2 : 0;  // at v = 1 or v = 0
+  }
+  return tet_key(lower, axis, edge);
+}
+
+Eigen::Vector4d BccLattice::barycentric(Key tet, const Eigen::Vector3d& p) const {
+  const Eigen::Vector3d x0 = position(tet_nodes(tet)[0]);
+  const Eigen::Vector3d l = Dm_inv(tet) * (p - x0);
+  return {1.0 - l.sum(), l.x(), l.y(), l.z()};
+}
+
+}  // namespace goo

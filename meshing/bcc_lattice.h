@@ -1,0 +1,75 @@
+#pragma once
+// The body-centred-cubic lattice (Labelle & Shewchuk 2007; W&T sec. 5): two
+// cubic grids of spacing h, corners o + (i, j, k) h and centres
+// o + (i + ½, j + ½, k + ½) h. A lattice tetrahedron is two face-adjacent
+// cell centres plus one edge of their shared face: 12 per cell, all
+// congruent (edges h, h and four of h√3/2; volume h³/12).
+#include <array>
+#include <cstdint>
+#include <optional>
+
+#include "core/types.h"
+
+namespace goo {
+
+/// A finite block of the lattice: `cells` cells from `origin`. Node and
+/// tetrahedron keys are 64-bit so that a lattice may be far larger than the
+/// mesh cut from it.
+class BccLattice {
+ public:
+  using Key = std::int64_t;
+
+  BccLattice(const Eigen::Vector3d& origin, double spacing, const Eigen::Vector3i& cells);
+
+  [[nodiscard]] const Eigen::Vector3d& origin() const { return origin_; }
+  [[nodiscard]] double spacing() const { return h_; }
+  [[nodiscard]] const Eigen::Vector3i& cells() const { return cells_; }
+
+  // ---- nodes: corners first, then centres
+  [[nodiscard]] Key num_nodes() const { return num_corners_ + cells_.cast<Key>().prod(); }
+  [[nodiscard]] Key corner_key(const Eigen::Vector3i& ijk) const;  ///< 0 ≤ ijk ≤ cells
+  [[nodiscard]] Key centre_key(const Eigen::Vector3i& ijk) const;  ///< 0 ≤ ijk < cells
+  [[nodiscard]] bool is_centre(Key node) const { return node >= num_corners_; }
+  [[nodiscard]] Eigen::Vector3d position(Key node) const;
+
+  // ---- tetrahedra: 12 per cell, keyed by (lower cell of the centre pair, axis, edge)
+  /// Number of tetrahedron keys (12 per cell; keys whose upper cell falls
+  /// outside the block are not tetrahedra of it: see valid()).
+  [[nodiscard]] Key num_tet_keys() const { return 12 * cells_.cast<Key>().prod(); }
+  /// Key of the tetrahedron joining the centres of `cell` and cell + e_axis
+  /// with edge `edge` (0..3) of their shared face.
+  [[nodiscard]] Key tet_key(const Eigen::Vector3i& cell, int axis, int edge) const;
+  /// Whether both centres of the tetrahedron lie in the block.
+  [[nodiscard]] bool valid(Key tet) const;
+  /// Its four nodes, positively oriented: det[x1−x0, x2−x0, x3−x0] > 0.
+  [[nodiscard]] std::array<Key, 4> tet_nodes(Key tet) const;
+  /// Dm⁻¹ of a tetrahedron: every lattice tetrahedron is one of 12 shapes.
+  [[nodiscard]] const Eigen::Matrix3d& Dm_inv(Key tet) const { return Dm_inv_[static_cast<std::size_t>(tet % 12)]; }
+  /// h³ / 12.
+  [[nodiscard]] double tet_volume() const { return h_ * h_ * h_ / 12.0; }
+
+  /// The tetrahedron containing p, in constant time: cell, then the pyramid
+  /// from the cell centre to the face the offset points at most (largest
+  /// |component|), then the quadrant of that face cut by its diagonals. Ties
+  /// (p on a shared face) pick one of the tetrahedra that contain p. Empty if
+  /// that tetrahedron is not in the block.
+  [[nodiscard]] std::optional<Key> locate(const Eigen::Vector3d& p) const;
+
+  /// Barycentric coordinates of p in a tetrahedron (in tet_nodes order).
+  [[nodiscard]] Eigen::Vector4d barycentric(Key tet, const Eigen::Vector3d& p) const;
+
+  /// The cell containing p (may be outside the block).
+  [[nodiscard]] Eigen::Vector3i cell_of(const Eigen::Vector3d& p) const;
+
+ private:
+  Eigen::Vector3d origin_;
+  double h_;
+  Eigen::Vector3i cells_;
+  Key num_corners_;
+  // Per shape (axis, edge): whether the face edge is reversed to keep the
+  // tetrahedron positive, and its Dm⁻¹.
+  std::array<bool, 12> swap_{};
+  std::array<Eigen::Matrix3d, 12> Dm_inv_{};
+};
+
+}  // namespace goo

@@ -1,0 +1,126 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <random>
+
+#include "core/error.h"
+#include "meshing/bcc_lattice.h"
+#include "tests/common/test_common.h"
+
+namespace goo {
+namespace {
+
+const BccLattice kLattice(Eigen::Vector3d(-0.3, 0.1, 2.0), 0.25, Eigen::Vector3i(4, 3, 5));
+
+std::vector<BccLattice::Key> all_tets(const BccLattice& lattice) {
+  std::vector<BccLattice::Key> out;
+  for (BccLattice::Key t = 0; t < lattice.num_tet_keys(); ++t)
+    if (lattice.valid(t)) out.push_back(t);
+  return out;
+}
+
+TEST(BccLattice, TetrahedraAreCongruentPositiveAndMatchTheirDmInverse) {
+  const double h = kLattice.spacing();
+  // Edges: the centre pair (h), the face edge (h), four centre–corner (h√3/2).
+  std::vector<double> expected = {
+      h * std::sqrt(3.0) / 2, h * std::sqrt(3.0) / 2, h * std::sqrt(3.0) / 2, h * std::sqrt(3.0) / 2, h, h};
+  for (const auto t : all_tets(kLattice)) {
+    const auto nodes = kLattice.tet_nodes(t);
+    std::array<Eigen::Vector3d, 4> x;
+    for (int k = 0; k < 4; ++k) x[static_cast<std::size_t>(k)] = kLattice.position(nodes[static_cast<std::size_t>(k)]);
+    std::vector<double> edges;
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j)
+        edges.push_back((x[static_cast<std::size_t>(i)] - x[static_cast<std::size_t>(j)]).norm());
+    std::sort(edges.begin(), edges.end());
+    for (std::size_t k = 0; k < 6; ++k) EXPECT_NEAR(edges[k], expected[k], 1e-14) << "tet " << t;
+    Eigen::Matrix3d D;
+    for (int k = 0; k < 3; ++k) D.col(k) = x[static_cast<std::size_t>(k) + 1] - x[0];
+    EXPECT_NEAR(D.determinant() / 6.0, kLattice.tet_volume(), 1e-15) << "tet " << t;
+    EXPECT_TRUE(test::matrices_near(kLattice.Dm_inv(t) * D, Eigen::Matrix3d::Identity(), 1e-13));
+  }
+}
+
+TEST(BccLattice, FacesAreSharedByAtMostTwoTetrahedraWithOppositeOrientation) {
+  // Conforming: a triangle is a face of one tetrahedron (block boundary) or
+  // of two, which see it with opposite outward orientations.
+  // Outward faces of a positive tetrahedron (0, 1, 2, 3).
+  constexpr int kOutward[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+  std::map<std::array<BccLattice::Key, 3>, std::vector<int>> faces;  // sorted face → parities
+  for (const auto t : all_tets(kLattice)) {
+    const auto n = kLattice.tet_nodes(t);
+    for (const auto& face : kOutward) {
+      std::array<BccLattice::Key, 3> f = {n[static_cast<std::size_t>(face[0])], n[static_cast<std::size_t>(face[1])],
+                                          n[static_cast<std::size_t>(face[2])]};
+      // Parity of the permutation that sorts f (bubble sort swaps).
+      int parity = 0;
+      for (int pass = 0; pass < 2; ++pass)
+        for (std::size_t i = 0; i + 1 < 3; ++i)
+          if (f[i] > f[i + 1]) {
+            std::swap(f[i], f[i + 1]);
+            parity ^= 1;
+          }
+      faces[f].push_back(parity);
+    }
+  }
+  std::size_t shared = 0;
+  for (const auto& [face, parities] : faces) {
+    ASSERT_LE(parities.size(), 2U);
+    if (parities.size() == 2) {
+      ++shared;
+      EXPECT_NE(parities[0], parities[1]) << "a shared face seen with the same orientation: overlap";
+    }
+  }
+  EXPECT_GT(shared, faces.size() / 2);
+  // Volume: the tetrahedra of the block tile exactly the region between the
+  // outermost centres: (n − 1) cells along each centre-pair axis.
+  EXPECT_EQ(static_cast<std::size_t>(all_tets(kLattice).size()),
+            static_cast<std::size_t>(4 * (3 * 3 * 5 + 4 * 2 * 5 + 4 * 3 * 4)));
+}
+
+TEST(BccLattice, LocateFindsTheOnlyTetrahedronContainingARandomPoint) {
+  std::mt19937 rng(11);
+  const Eigen::Vector3d lo = kLattice.origin() + Eigen::Vector3d::Constant(0.5 * kLattice.spacing());
+  const Eigen::Vector3d hi =
+      kLattice.origin() + kLattice.spacing() * (kLattice.cells().cast<double>().array() - 0.5).matrix();
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const auto tets = all_tets(kLattice);
+  for (int trial = 0; trial < 2000; ++trial) {
+    const Eigen::Vector3d p = lo + Eigen::Vector3d(u(rng), u(rng), u(rng)).cwiseProduct(hi - lo);
+    const auto found = kLattice.locate(p);
+    ASSERT_TRUE(found.has_value());
+    const Eigen::Vector4d b = kLattice.barycentric(*found, p);
+    EXPECT_GE(b.minCoeff(), -1e-12) << "p is not in the located tetrahedron";
+    EXPECT_NEAR(b.sum(), 1.0, 1e-14);
+    // Brute force: exactly one tetrahedron holds p strictly inside.
+    int holders = 0;
+    for (const auto t : tets) holders += kLattice.barycentric(t, p).minCoeff() > 1e-9 ? 1 : 0;
+    EXPECT_EQ(holders, 1) << "the tetrahedra must tile space without gaps or overlaps";
+    // The barycentric coordinates reproduce p.
+    const auto nodes = kLattice.tet_nodes(*found);
+    Eigen::Vector3d back = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 4; ++k) back += b[k] * kLattice.position(nodes[static_cast<std::size_t>(k)]);
+    EXPECT_TRUE(test::matrices_near(back, p, 1e-14 * (1.0 + p.norm())));
+  }
+}
+
+TEST(BccLattice, LocateOnLatticeNodesAndFacesStillContainsThePoint) {
+  // Points on corners, centres, and face centres: ties pick a tetrahedron
+  // that contains the point (all b ≥ −ε).
+  for (BccLattice::Key node = 0; node < kLattice.num_nodes(); ++node) {
+    const Eigen::Vector3d p = kLattice.position(node);
+    const auto found = kLattice.locate(p);
+    if (!found) continue;  // outside the tiled region
+    EXPECT_GE(kLattice.barycentric(*found, p).minCoeff(), -1e-14) << "node " << node;
+  }
+}
+
+TEST(BccLattice, OutsideTheBlockThereIsNoTetrahedron) {
+  EXPECT_FALSE(kLattice.locate(kLattice.origin() - Eigen::Vector3d::Constant(0.01)).has_value());
+  EXPECT_FALSE(kLattice.locate(Eigen::Vector3d(std::nan(""), 0, 0)).has_value());
+  EXPECT_THROW(BccLattice(Eigen::Vector3d::Zero(), -1.0, Eigen::Vector3i::Ones()), Error);
+}
+
+}  // namespace
+}  // namespace goo
