@@ -1,0 +1,196 @@
+#include "meshing/lattice_mesh.h"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.h"
+#include "core/parallel.h"
+#include "core/surface_geometry.h"
+#include "meshing/voxelize.h"
+
+namespace goo {
+namespace {
+
+/// Separating-axis test of a triangle and a tetrahedron, with both inflated
+/// by `slack` along every axis: touching counts as overlapping, so coverage
+/// is never lost to round-off (extra tetrahedra are harmless).
+bool overlaps(const std::array<Eigen::Vector3d, 3>& tri, const std::array<Eigen::Vector3d, 4>& tet, double slack) {
+  auto separated = [&](const Eigen::Vector3d& axis) {
+    const double length = axis.norm();
+    if (length < 1e-300) return false;
+    double t0 = tri[0].dot(axis), t1 = t0, k0 = tet[0].dot(axis), k1 = k0;
+    for (const auto& p : tri) {
+      t0 = std::min(t0, p.dot(axis));
+      t1 = std::max(t1, p.dot(axis));
+    }
+    for (const auto& p : tet) {
+      k0 = std::min(k0, p.dot(axis));
+      k1 = std::max(k1, p.dot(axis));
+    }
+    return t1 + slack * length < k0 || k1 + slack * length < t0;
+  };
+  const std::array<Eigen::Vector3d, 3> tri_edges = {tri[1] - tri[0], tri[2] - tri[1], tri[0] - tri[2]};
+  if (separated(tri_edges[0].cross(tri_edges[1]))) return false;
+  static constexpr int kFaces[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+  for (const auto& f : kFaces) {
+    const Eigen::Vector3d& a = tet[static_cast<std::size_t>(f[0])];
+    if (separated((tet[static_cast<std::size_t>(f[1])] - a).cross(tet[static_cast<std::size_t>(f[2])] - a)))
+      return false;
+  }
+  static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  for (const auto& e : tri_edges)
+    for (const auto& te : kEdges) {
+      if (separated(e.cross(tet[static_cast<std::size_t>(te[1])] - tet[static_cast<std::size_t>(te[0])]))) return false;
+    }
+  return true;
+}
+
+std::array<Eigen::Vector3d, 4> tet_positions(const BccLattice& lattice, BccLattice::Key tet) {
+  const auto nodes = lattice.tet_nodes(tet);
+  return {lattice.position(nodes[0]), lattice.position(nodes[1]), lattice.position(nodes[2]),
+          lattice.position(nodes[3])};
+}
+
+BccLattice block_around(const TriangleMesh& surface, double h) {
+  if (!(h > 0.0) || !std::isfinite(h)) throw Error(fmt::format("lattice spacing must be positive, got {}", h));
+  const Eigen::AlignedBox3d box = bounding_box(surface.vertices);
+  if (box.isEmpty()) throw Error("cannot build a lattice around an empty surface");
+  const Eigen::Vector3d origin = ((box.min() / h).array().floor() - 2.0).matrix() * h;
+  const Eigen::Vector3i cells = (((box.max() - origin) / h).array().ceil() + 2.0).cast<int>();
+  return BccLattice(origin, h, cells);
+}
+
+}  // namespace
+
+LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
+  LatticeMesh out{block_around(surface, h), {}, {}, {}, {}};
+  const BccLattice& lattice = out.lattice;
+  const std::vector<std::uint8_t> inside = voxelize(lattice, surface);
+  std::vector<std::uint8_t> keep(static_cast<std::size_t>(lattice.num_tet_keys()), 0);
+  // Tetrahedra with an inside node.
+  tbb::parallel_for(tbb::blocked_range<BccLattice::Key>(0, lattice.num_tet_keys(), 4096),
+                    [&](const tbb::blocked_range<BccLattice::Key>& r) {
+                      for (BccLattice::Key t = r.begin(); t != r.end(); ++t) {
+                        if (!lattice.valid(t)) continue;
+                        for (const auto n : lattice.tet_nodes(t))
+                          if (inside[static_cast<std::size_t>(n)]) keep[static_cast<std::size_t>(t)] = 1;
+                      }
+                    });
+  // Tetrahedra overlapping a triangle: candidates from the cells around the
+  // triangle's box. Writes only set flags to 1, so the order does not matter.
+  const double slack = 1e-9 * h;
+  for (Index t = 0; t < surface.num_triangles(); ++t) {
+    const std::array<Eigen::Vector3d, 3> tri = {surface.vertices.row(surface.triangles(t, 0)).transpose(),
+                                                surface.vertices.row(surface.triangles(t, 1)).transpose(),
+                                                surface.vertices.row(surface.triangles(t, 2)).transpose()};
+    const Eigen::Vector3d lo = tri[0].cwiseMin(tri[1]).cwiseMin(tri[2]), hi = tri[0].cwiseMax(tri[1]).cwiseMax(tri[2]);
+    const Eigen::Vector3i c0 = (lattice.cell_of(lo).array() - 1).max(0);
+    const Eigen::Vector3i c1 = (lattice.cell_of(hi).array() + 1).min(lattice.cells().array() - 1);
+    for (int k = c0.z(); k <= c1.z(); ++k)
+      for (int j = c0.y(); j <= c1.y(); ++j)
+        for (int i = c0.x(); i <= c1.x(); ++i)
+          for (int shape = 0; shape < 12; ++shape) {
+            const BccLattice::Key key = lattice.tet_key({i, j, k}, shape / 4, shape % 4);
+            if (keep[static_cast<std::size_t>(key)] || !lattice.valid(key)) continue;
+            if (overlaps(tri, tet_positions(lattice, key), slack)) keep[static_cast<std::size_t>(key)] = 1;
+          }
+  }
+  // Compact numbering, in lattice key order (deterministic).
+  std::vector<Index> node_id(static_cast<std::size_t>(lattice.num_nodes()), -1);
+  for (BccLattice::Key t = 0; t < lattice.num_tet_keys(); ++t) {
+    if (!keep[static_cast<std::size_t>(t)]) continue;
+    out.tet_keys.push_back(t);
+    for (const auto n : lattice.tet_nodes(t)) node_id[static_cast<std::size_t>(n)] = 0;
+  }
+  for (BccLattice::Key n = 0; n < lattice.num_nodes(); ++n) {
+    if (node_id[static_cast<std::size_t>(n)] < 0) continue;
+    node_id[static_cast<std::size_t>(n)] = static_cast<Index>(out.node_keys.size());
+    out.node_keys.push_back(n);
+  }
+  out.mesh.positions.resize(static_cast<Eigen::Index>(out.node_keys.size()), 3);
+  for (std::size_t i = 0; i < out.node_keys.size(); ++i)
+    out.mesh.positions.row(static_cast<Eigen::Index>(i)) = lattice.position(out.node_keys[i]).transpose();
+  out.mesh.tets.resize(static_cast<Eigen::Index>(out.tet_keys.size()), 4);
+  out.element_of.reserve(out.tet_keys.size());
+  for (std::size_t e = 0; e < out.tet_keys.size(); ++e) {
+    const auto nodes = lattice.tet_nodes(out.tet_keys[e]);
+    for (int k = 0; k < 4; ++k)
+      out.mesh.tets(static_cast<Eigen::Index>(e), k) =
+          node_id[static_cast<std::size_t>(nodes[static_cast<std::size_t>(k)])];
+    out.element_of.emplace(out.tet_keys[e], static_cast<Index>(e));
+  }
+  return out;
+}
+
+Embedding embed(const LatticeMesh& lm, const Points& vertices) {
+  const Index nv = static_cast<Index>(vertices.rows());
+  Embedding out;
+  out.parent.assign(at(nv), -1);
+  out.bary.resize(nv, 4);
+  const BccLattice& lattice = lm.lattice;
+  tbb::parallel_for(tbb::blocked_range<Index>(0, nv, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index v = r.begin(); v != r.end(); ++v) {
+      const Eigen::Vector3d p = vertices.row(v);
+      Index best = -1;
+      Eigen::Vector4d best_b = Eigen::Vector4d::Constant(-1e300);
+      if (const auto key = lattice.locate(p)) {
+        if (const auto it = lm.element_of.find(*key); it != lm.element_of.end()) {
+          best = it->second;
+          best_b = lattice.barycentric(*key, p);
+        }
+      }
+      if (best < 0) {
+        // On a face shared with a tetrahedron that was not kept: the kept
+        // tetrahedra of the surrounding cells, best containment first.
+        const Eigen::Vector3i cell = lattice.cell_of(p);
+        for (int dk = -1; dk <= 1; ++dk)
+          for (int dj = -1; dj <= 1; ++dj)
+            for (int di = -1; di <= 1; ++di) {
+              const Eigen::Vector3i c = cell + Eigen::Vector3i(di, dj, dk);
+              if ((c.array() < 0).any() || (c.array() >= lattice.cells().array()).any()) continue;
+              for (int shape = 0; shape < 12; ++shape) {
+                const BccLattice::Key key = lattice.tet_key(c, shape / 4, shape % 4);
+                const auto it = lm.element_of.find(key);
+                if (it == lm.element_of.end()) continue;
+                const Eigen::Vector4d b = lattice.barycentric(key, p);
+                if (b.minCoeff() > best_b.minCoeff() || (b.minCoeff() == best_b.minCoeff() && it->second < best)) {
+                  best = it->second;
+                  best_b = b;
+                }
+              }
+            }
+      }
+      if (best < 0) throw Error(fmt::format("surface vertex {} lies outside the lattice mesh", v));
+      out.parent[at(v)] = best;
+      out.bary.row(v) = best_b.transpose();
+    }
+  });
+  return out;
+}
+
+Eigen::SparseMatrix<double, Eigen::RowMajor> Embedding::operator_matrix(const TetMesh& mesh) const {
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(4 * parent.size());
+  for (std::size_t v = 0; v < parent.size(); ++v)
+    for (int k = 0; k < 4; ++k)
+      triplets.emplace_back(static_cast<Index>(v), mesh.tets(parent[v], k), bary(static_cast<Eigen::Index>(v), k));
+  Eigen::SparseMatrix<double, Eigen::RowMajor> W(static_cast<Eigen::Index>(parent.size()), mesh.num_nodes());
+  W.setFromTriplets(triplets.begin(), triplets.end());
+  return W;
+}
+
+Points Embedding::surface_positions(const Tets& tets, const Points& x) const {
+  Points out(static_cast<Eigen::Index>(parent.size()), 3);
+  for (std::size_t v = 0; v < parent.size(); ++v) {
+    Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+    for (int k = 0; k < 4; ++k) p += bary(static_cast<Eigen::Index>(v), k) * x.row(tets(parent[v], k));
+    out.row(static_cast<Eigen::Index>(v)) = p;
+  }
+  return out;
+}
+
+}  // namespace goo

@@ -1,0 +1,94 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "core/error.h"
+#include "core/primitives.h"
+#include "core/surface_check.h"
+#include "io/surface_mesh_io.h"
+#include "meshing/lattice_mesh.h"
+#include "tests/common/test_common.h"
+
+namespace goo {
+namespace {
+
+struct Case {
+  std::string name;
+  TriangleMesh surface;
+  double h;
+};
+
+std::vector<Case> cases() {
+  std::vector<Case> out;
+  out.push_back({"sphere", make_sphere(1.0, 24), 0.2});
+  TriangleMesh cube = make_box(Eigen::Vector3d::Ones(), 4);
+  cube.vertices.rowwise() += Eigen::RowVector3d::Constant(0.5);  // faces on lattice planes
+  out.push_back({"aligned_cube", cube, 0.25});
+  // A sheet a hundredth of the spacing thick: no lattice node inside it.
+  out.push_back({"thin_sheet", make_box({1.0, 0.8, 0.002}, 3), 0.2});
+  const auto bunny = test::asset("bunny00.off");
+  if (std::filesystem::exists(bunny)) out.push_back({"bunny", io::read_surface_mesh(bunny), 0.05});
+  return out;
+}
+
+TEST(LatticeMesh, CoversTheSurfaceAndEmbedsEveryVertexInItsParent) {
+  for (const Case& c : cases()) {
+    SCOPED_TRACE(c.name);
+    const LatticeMesh lm = build_lattice_mesh(c.surface, c.h);
+    ASSERT_GT(lm.mesh.num_elements(), 0);
+    // Congruent, positive, compact.
+    for (Index e = 0; e < lm.mesh.num_elements(); ++e)
+      ASSERT_NEAR(signed_volume(lm.mesh.positions, lm.mesh.tets, e), c.h * c.h * c.h / 12.0, 1e-12 * c.h * c.h * c.h);
+    std::vector<int> used(static_cast<std::size_t>(lm.mesh.num_nodes()), 0);
+    for (Index e = 0; e < lm.mesh.num_elements(); ++e)
+      for (int k = 0; k < 4; ++k) used[static_cast<std::size_t>(lm.mesh.tets(e, k))] = 1;
+    EXPECT_EQ(std::count(used.begin(), used.end(), 1), lm.mesh.num_nodes());
+
+    // Every vertex in its parent; x_s = W x reproduces the surface.
+    const Embedding embedding = embed(lm, c.surface.vertices);
+    EXPECT_GE(embedding.bary.minCoeff(), -1e-12);
+    EXPECT_TRUE(
+        test::matrices_near(embedding.bary.rowwise().sum(), Eigen::VectorXd::Ones(c.surface.num_vertices()), 1e-13));
+    const Eigen::SparseMatrix<double, Eigen::RowMajor> W = embedding.operator_matrix(lm.mesh);
+    const Points xs = W * lm.mesh.positions;
+    EXPECT_TRUE(test::matrices_near(xs, c.surface.vertices, 1e-13 * (1.0 + c.surface.vertices.cwiseAbs().maxCoeff())));
+    EXPECT_TRUE(test::matrices_near(embedding.surface_positions(lm.mesh.tets, lm.mesh.positions), xs, 1e-15));
+
+    // Coverage: points spread over every triangle lie in kept tetrahedra.
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    Points samples(4 * c.surface.num_triangles(), 3);
+    for (Index t = 0; t < c.surface.num_triangles(); ++t) {
+      const Eigen::RowVector3d a = c.surface.vertices.row(c.surface.triangles(t, 0));
+      const Eigen::RowVector3d b = c.surface.vertices.row(c.surface.triangles(t, 1));
+      const Eigen::RowVector3d d = c.surface.vertices.row(c.surface.triangles(t, 2));
+      samples.row(4 * t) = (a + b + d) / 3.0;
+      samples.row(4 * t + 1) = 0.5 * (a + b);
+      samples.row(4 * t + 2) = 0.5 * (b + d);
+      double r1 = u(rng), r2 = u(rng);
+      if (r1 + r2 > 1.0) {
+        r1 = 1.0 - r1;
+        r2 = 1.0 - r2;
+      }
+      samples.row(4 * t + 3) = a + r1 * (b - a) + r2 * (d - a);
+    }
+    const Embedding covered = embed(lm, samples);
+    EXPECT_GE(covered.bary.minCoeff(), -1e-12) << "a point of the surface lies outside every kept tetrahedron";
+
+    // The kept tetrahedra hold the whole solid.
+    EXPECT_GE(lm.mesh.num_elements() * c.h * c.h * c.h / 12.0, analyze_surface(c.surface).volume);
+  }
+}
+
+TEST(LatticeMesh, IsDeterministicAndAlignedToTheWorldGrid) {
+  const TriangleMesh sphere = make_sphere(0.7, 20);
+  const LatticeMesh a = build_lattice_mesh(sphere, 0.1), b = build_lattice_mesh(sphere, 0.1);
+  EXPECT_TRUE(a.mesh.tets == b.mesh.tets);
+  EXPECT_TRUE(a.mesh.positions == b.mesh.positions);
+  const Eigen::Vector3d cells = a.lattice.origin() / 0.1;
+  EXPECT_TRUE(test::matrices_near(cells, cells.array().round().matrix(), 1e-12));
+  EXPECT_THROW(build_lattice_mesh(sphere, 0.0), Error);
+}
+
+}  // namespace
+}  // namespace goo
