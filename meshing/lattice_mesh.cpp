@@ -88,16 +88,32 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
                                                 surface.vertices.row(surface.triangles(t, 1)).transpose(),
                                                 surface.vertices.row(surface.triangles(t, 2)).transpose()};
     const Eigen::Vector3d lo = tri[0].cwiseMin(tri[1]).cwiseMin(tri[2]), hi = tri[0].cwiseMax(tri[1]).cwiseMax(tri[2]);
-    const Eigen::Vector3i c0 = (lattice.cell_of(lo).array() - 1).max(0);
-    const Eigen::Vector3i c1 = (lattice.cell_of(hi).array() + 1).min(lattice.cells().array() - 1);
-    for (int k = c0.z(); k <= c1.z(); ++k)
-      for (int j = c0.y(); j <= c1.y(); ++j)
-        for (int i = c0.x(); i <= c1.x(); ++i)
-          for (int shape = 0; shape < 12; ++shape) {
-            const BccLattice::Key key = lattice.tet_key({i, j, k}, shape / 4, shape % 4);
+    const Eigen::Vector3i lo_cell = lattice.cell_of(lo).array().max(0);
+    const Eigen::Vector3i hi_cell = lattice.cell_of(hi).array().min(lattice.cells().array() - 1);
+    for (int shape = 0; shape < 12; ++shape) {
+      // A tetrahedron of axis a keyed by its lower cell spans that cell's
+      // extent across a, and from its centre to the next centre along a: it
+      // can meet the triangle only if the lower cell is in [lo − 1, hi]
+      // along a and in [lo, hi] across.
+      const int axis = shape / 4;
+      Eigen::Vector3i c0 = lo_cell;
+      c0[axis] = std::max(0, c0[axis] - 1);
+      for (int k = c0.z(); k <= hi_cell.z(); ++k)
+        for (int j = c0.y(); j <= hi_cell.y(); ++j)
+          for (int i = c0.x(); i <= hi_cell.x(); ++i) {
+            const BccLattice::Key key = lattice.tet_key({i, j, k}, axis, shape % 4);
             if (keep[static_cast<std::size_t>(key)] || !lattice.valid(key)) continue;
-            if (overlaps(tri, tet_positions(lattice, key), slack)) keep[static_cast<std::size_t>(key)] = 1;
+            const auto tet = tet_positions(lattice, key);
+            Eigen::Vector3d tet_lo = tet[0], tet_hi = tet[0];
+            for (const auto& p : tet) {
+              tet_lo = tet_lo.cwiseMin(p);
+              tet_hi = tet_hi.cwiseMax(p);
+            }
+            if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any())
+              continue;
+            if (overlaps(tri, tet, slack)) keep[static_cast<std::size_t>(key)] = 1;
           }
+    }
   }
   // Compact numbering, in lattice key order (deterministic).
   std::vector<Index> node_id(static_cast<std::size_t>(lattice.num_nodes()), -1);

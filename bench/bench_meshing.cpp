@@ -1,0 +1,74 @@
+// Lattice meshing stages on real models: what a re-mesh costs.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+
+#include "core/surface_check.h"
+#include "io/surface_mesh_io.h"
+#include "meshing/lattice_mesh.h"
+#include "meshing/voxelize.h"
+
+namespace {
+
+const std::filesystem::path kAssets = GOO_ASSETS_DIR;
+const char* const kModels[] = {"bunny00.off", "armadillo.off"};
+
+const goo::TriangleMesh* model(int index) {
+  static std::map<int, goo::TriangleMesh> cache;
+  if (const auto it = cache.find(index); it != cache.end()) return &it->second;
+  const auto path = kAssets / kModels[index];
+  if (!std::filesystem::exists(path)) return nullptr;
+  return &cache.emplace(index, goo::io::read_surface_mesh(path)).first->second;
+}
+
+/// Spacing giving about `tets` lattice tetrahedra inside the solid (12 per
+/// cell volume h³ of solid; the surface layer adds more).
+double spacing_for(const goo::TriangleMesh& mesh, double tets) {
+  return std::cbrt(12.0 * goo::analyze_surface(mesh).volume / tets);
+}
+
+void configure(benchmark::internal::Benchmark* b) {
+  for (int m = 0; m < 2; ++m)
+    for (const int k : {8, 20, 60}) b->Args({m, k});
+  b->Unit(benchmark::kMillisecond);
+}
+
+// Args: model (0 bunny00, 1 armadillo), target thousands of tetrahedra.
+void BM_Voxelize(benchmark::State& state) {
+  const goo::TriangleMesh* mesh = model(static_cast<int>(state.range(0)));
+  if (!mesh) return state.SkipWithError("assets missing: run scripts/fetch-assets");
+  const double h = spacing_for(*mesh, 1000.0 * static_cast<double>(state.range(1)));
+  const goo::LatticeMesh lm = goo::build_lattice_mesh(*mesh, h);
+  for (auto _ : state) benchmark::DoNotOptimize(goo::voxelize(lm.lattice, *mesh));
+  state.counters["tets"] = lm.mesh.num_elements();
+}
+BENCHMARK(BM_Voxelize)->Apply(configure);
+
+/// The whole mesh generation: voxelisation, kept tetrahedra, numbering.
+void BM_BuildTets(benchmark::State& state) {
+  const goo::TriangleMesh* mesh = model(static_cast<int>(state.range(0)));
+  if (!mesh) return state.SkipWithError("assets missing: run scripts/fetch-assets");
+  const double h = spacing_for(*mesh, 1000.0 * static_cast<double>(state.range(1)));
+  goo::Index tets = 0;
+  for (auto _ : state) {
+    const goo::LatticeMesh lm = goo::build_lattice_mesh(*mesh, h);
+    tets = lm.mesh.num_elements();
+  }
+  state.counters["tets"] = tets;
+}
+BENCHMARK(BM_BuildTets)->Apply(configure);
+
+void BM_Embed(benchmark::State& state) {
+  const goo::TriangleMesh* mesh = model(static_cast<int>(state.range(0)));
+  if (!mesh) return state.SkipWithError("assets missing: run scripts/fetch-assets");
+  const goo::LatticeMesh lm =
+      goo::build_lattice_mesh(*mesh, spacing_for(*mesh, 1000.0 * static_cast<double>(state.range(1))));
+  for (auto _ : state) benchmark::DoNotOptimize(goo::embed(lm, mesh->vertices));
+  state.counters["tets"] = lm.mesh.num_elements();
+  state.SetItemsProcessed(state.iterations() * mesh->num_vertices());
+}
+BENCHMARK(BM_Embed)->Apply(configure);
+
+}  // namespace
