@@ -80,41 +80,53 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
                           if (inside[static_cast<std::size_t>(n)]) keep[static_cast<std::size_t>(t)] = 1;
                       }
                     });
-  // Tetrahedra overlapping a triangle: candidates from the cells around the
-  // triangle's box. Writes only set flags to 1, so the order does not matter.
+  // Tetrahedra overlapping a triangle: in parallel over fixed chunks of
+  // triangles, each listing what it found; `keep` is only read there (the
+  // inside-node pass is complete) and set afterwards, so the result does not
+  // depend on the thread count.
   const double slack = 1e-9 * h;
-  for (Index t = 0; t < surface.num_triangles(); ++t) {
-    const std::array<Eigen::Vector3d, 3> tri = {surface.vertices.row(surface.triangles(t, 0)).transpose(),
-                                                surface.vertices.row(surface.triangles(t, 1)).transpose(),
-                                                surface.vertices.row(surface.triangles(t, 2)).transpose()};
-    const Eigen::Vector3d lo = tri[0].cwiseMin(tri[1]).cwiseMin(tri[2]), hi = tri[0].cwiseMax(tri[1]).cwiseMax(tri[2]);
-    const Eigen::Vector3i lo_cell = lattice.cell_of(lo).array().max(0);
-    const Eigen::Vector3i hi_cell = lattice.cell_of(hi).array().min(lattice.cells().array() - 1);
-    for (int shape = 0; shape < 12; ++shape) {
-      // A tetrahedron of axis a keyed by its lower cell spans that cell's
-      // extent across a, and from its centre to the next centre along a: it
-      // can meet the triangle only if the lower cell is in [lo − 1, hi]
-      // along a and in [lo, hi] across.
-      const int axis = shape / 4;
-      Eigen::Vector3i c0 = lo_cell;
-      c0[axis] = std::max(0, c0[axis] - 1);
-      for (int k = c0.z(); k <= hi_cell.z(); ++k)
-        for (int j = c0.y(); j <= hi_cell.y(); ++j)
-          for (int i = c0.x(); i <= hi_cell.x(); ++i) {
-            const BccLattice::Key key = lattice.tet_key({i, j, k}, axis, shape % 4);
-            if (keep[static_cast<std::size_t>(key)] || !lattice.valid(key)) continue;
-            const auto tet = tet_positions(lattice, key);
-            Eigen::Vector3d tet_lo = tet[0], tet_hi = tet[0];
-            for (const auto& p : tet) {
-              tet_lo = tet_lo.cwiseMin(p);
-              tet_hi = tet_hi.cwiseMax(p);
+  constexpr std::size_t kChunk = 256;
+  const auto num_triangles = static_cast<std::size_t>(surface.num_triangles());
+  std::vector<std::vector<BccLattice::Key>> chunks((num_triangles + kChunk - 1) / kChunk);
+  tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t chunk) {
+    auto& found = chunks[chunk];
+    for (std::size_t index = chunk * kChunk; index < std::min(num_triangles, (chunk + 1) * kChunk); ++index) {
+      const auto t = static_cast<Index>(index);
+      const std::array<Eigen::Vector3d, 3> tri = {surface.vertices.row(surface.triangles(t, 0)).transpose(),
+                                                  surface.vertices.row(surface.triangles(t, 1)).transpose(),
+                                                  surface.vertices.row(surface.triangles(t, 2)).transpose()};
+      const Eigen::Vector3d lo = tri[0].cwiseMin(tri[1]).cwiseMin(tri[2]),
+                            hi = tri[0].cwiseMax(tri[1]).cwiseMax(tri[2]);
+      const Eigen::Vector3i lo_cell = lattice.cell_of(lo).array().max(0);
+      const Eigen::Vector3i hi_cell = lattice.cell_of(hi).array().min(lattice.cells().array() - 1);
+      for (int shape = 0; shape < 12; ++shape) {
+        // A tetrahedron of axis a keyed by its lower cell spans that cell's
+        // extent across a, and from its centre to the next centre along a: it
+        // can meet the triangle only if the lower cell is in [lo − 1, hi]
+        // along a and in [lo, hi] across.
+        const int axis = shape / 4;
+        Eigen::Vector3i c0 = lo_cell;
+        c0[axis] = std::max(0, c0[axis] - 1);
+        for (int k = c0.z(); k <= hi_cell.z(); ++k)
+          for (int j = c0.y(); j <= hi_cell.y(); ++j)
+            for (int i = c0.x(); i <= hi_cell.x(); ++i) {
+              const BccLattice::Key key = lattice.tet_key({i, j, k}, axis, shape % 4);
+              if (keep[static_cast<std::size_t>(key)] || !lattice.valid(key)) continue;
+              const auto tet = tet_positions(lattice, key);
+              Eigen::Vector3d tet_lo = tet[0], tet_hi = tet[0];
+              for (const auto& p : tet) {
+                tet_lo = tet_lo.cwiseMin(p);
+                tet_hi = tet_hi.cwiseMax(p);
+              }
+              if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any())
+                continue;
+              if (overlaps(tri, tet, slack)) found.push_back(key);
             }
-            if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any())
-              continue;
-            if (overlaps(tri, tet, slack)) keep[static_cast<std::size_t>(key)] = 1;
-          }
+      }
     }
-  }
+  });
+  for (const auto& chunk : chunks)
+    for (const BccLattice::Key key : chunk) keep[static_cast<std::size_t>(key)] = 1;
   // Compact numbering, in lattice key order (deterministic).
   std::vector<Index> node_id(static_cast<std::size_t>(lattice.num_nodes()), -1);
   for (BccLattice::Key t = 0; t < lattice.num_tet_keys(); ++t) {

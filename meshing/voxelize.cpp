@@ -14,6 +14,8 @@ namespace goo {
 namespace {
 
 constexpr double kEps = std::numeric_limits<double>::epsilon();
+/// Triangles per parallel task.
+constexpr std::size_t kChunk = 256;
 
 struct Crossing {
   Index triangle;
@@ -66,41 +68,53 @@ std::vector<std::uint8_t> voxelize(const BccLattice& lattice, const TriangleMesh
 
   for (const ColumnGrid& grid : grids) {
     const std::size_t columns = static_cast<std::size_t>(grid.count.x()) * static_cast<std::size_t>(grid.count.y());
+    // Triangles to the columns they cross: in parallel over fixed chunks of
+    // triangles, merged in chunk order, so every column lists its crossings
+    // in triangle order whatever the thread count.
     std::vector<std::vector<Crossing>> crossings(columns);
-    // Triangles to the columns they cross, in triangle order (deterministic).
-    for (Index t = 0; t < surface.num_triangles(); ++t) {
-      const Eigen::Vector3d a = surface.vertices.row(surface.triangles(t, 0));
-      const Eigen::Vector3d b = surface.vertices.row(surface.triangles(t, 1));
-      const Eigen::Vector3d c = surface.vertices.row(surface.triangles(t, 2));
-      const int sign = exact::orient_xy(a, b, c);
-      if (sign == 0) continue;  // vertical: the shifted ray never meets it
-      const Eigen::Vector3d& u0 = a;
-      const Eigen::Vector3d& u1 = sign > 0 ? b : c;
-      const Eigen::Vector3d& u2 = sign > 0 ? c : b;
-      const Eigen::Vector3d lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
-      const int i0 = std::max(0, static_cast<int>(std::floor((lo.x() - o.x()) / h - grid.offset)));
-      const int i1 = std::min(grid.count.x() - 1, static_cast<int>(std::ceil((hi.x() - o.x()) / h - grid.offset)));
-      const int j0 = std::max(0, static_cast<int>(std::floor((lo.y() - o.y()) / h - grid.offset)));
-      const int j1 = std::min(grid.count.y() - 1, static_cast<int>(std::ceil((hi.y() - o.y()) / h - grid.offset)));
-      const Eigen::Vector3d normal = (b - a).cross(c - a);
-      const double extent = (hi - lo).norm() + lo.cwiseAbs().maxCoeff() + hi.cwiseAbs().maxCoeff();
-      // z = a_z − (n_x (x − a_x) + n_y (y − a_y)) / n_z: its rounding error
-      // grows with the slope |n_xy| / |n_z|; steep triangles always go exact.
-      const double slope = normal.head<2>().cwiseAbs().sum() / std::abs(normal.z());
-      const double tolerance = std::abs(normal.z()) > 1e-6 * normal.norm() ? 64.0 * kEps * (1.0 + slope) * extent
-                                                                           : std::numeric_limits<double>::infinity();
-      for (int j = j0; j <= j1; ++j)
-        for (int i = i0; i <= i1; ++i) {
-          const Eigen::Vector3d p(o.x() + (i + grid.offset) * h, o.y() + (j + grid.offset) * h, 0.0);
-          if (side_with_tiebreak(u0, u1, p) < 0 || side_with_tiebreak(u1, u2, p) < 0 ||
-              side_with_tiebreak(u2, u0, p) < 0)
-            continue;
-          const double z = a.z() - (normal.x() * (p.x() - a.x()) + normal.y() * (p.y() - a.y())) / normal.z();
-          crossings[static_cast<std::size_t>(j) * static_cast<std::size_t>(grid.count.x()) +
-                    static_cast<std::size_t>(i)]
-              .push_back({t, sign, z, tolerance});
-        }
-    }
+    const auto num_triangles = static_cast<std::size_t>(surface.num_triangles());
+    const std::size_t num_chunks = (num_triangles + kChunk - 1) / kChunk;
+    std::vector<std::vector<std::pair<std::size_t, Crossing>>> chunks(num_chunks);
+    tbb::parallel_for(std::size_t{0}, num_chunks, [&](std::size_t chunk) {
+      auto& found = chunks[chunk];
+      auto visit = [&](Index t) {
+        const Eigen::Vector3d a = surface.vertices.row(surface.triangles(t, 0));
+        const Eigen::Vector3d b = surface.vertices.row(surface.triangles(t, 1));
+        const Eigen::Vector3d c = surface.vertices.row(surface.triangles(t, 2));
+        const int sign = exact::orient_xy(a, b, c);
+        if (sign == 0) return;  // vertical: the shifted ray never meets it
+        const Eigen::Vector3d& u0 = a;
+        const Eigen::Vector3d& u1 = sign > 0 ? b : c;
+        const Eigen::Vector3d& u2 = sign > 0 ? c : b;
+        const Eigen::Vector3d lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
+        const int i0 = std::max(0, static_cast<int>(std::floor((lo.x() - o.x()) / h - grid.offset)));
+        const int i1 = std::min(grid.count.x() - 1, static_cast<int>(std::ceil((hi.x() - o.x()) / h - grid.offset)));
+        const int j0 = std::max(0, static_cast<int>(std::floor((lo.y() - o.y()) / h - grid.offset)));
+        const int j1 = std::min(grid.count.y() - 1, static_cast<int>(std::ceil((hi.y() - o.y()) / h - grid.offset)));
+        const Eigen::Vector3d normal = (b - a).cross(c - a);
+        const double extent = (hi - lo).norm() + lo.cwiseAbs().maxCoeff() + hi.cwiseAbs().maxCoeff();
+        // z = a_z − (n_x (x − a_x) + n_y (y − a_y)) / n_z: its rounding error
+        // grows with the slope |n_xy| / |n_z|; steep triangles always go exact.
+        const double slope = normal.head<2>().cwiseAbs().sum() / std::abs(normal.z());
+        const double tolerance = std::abs(normal.z()) > 1e-6 * normal.norm() ? 64.0 * kEps * (1.0 + slope) * extent
+                                                                             : std::numeric_limits<double>::infinity();
+        for (int j = j0; j <= j1; ++j)
+          for (int i = i0; i <= i1; ++i) {
+            const Eigen::Vector3d p(o.x() + (i + grid.offset) * h, o.y() + (j + grid.offset) * h, 0.0);
+            if (side_with_tiebreak(u0, u1, p) < 0 || side_with_tiebreak(u1, u2, p) < 0 ||
+                side_with_tiebreak(u2, u0, p) < 0)
+              continue;
+            const double z = a.z() - (normal.x() * (p.x() - a.x()) + normal.y() * (p.y() - a.y())) / normal.z();
+            found.emplace_back(
+                static_cast<std::size_t>(j) * static_cast<std::size_t>(grid.count.x()) + static_cast<std::size_t>(i),
+                Crossing{t, sign, z, tolerance});
+          }
+      };
+      const std::size_t end = std::min(num_triangles, (chunk + 1) * kChunk);
+      for (std::size_t t = chunk * kChunk; t < end; ++t) visit(static_cast<Index>(t));
+    });
+    for (const auto& chunk : chunks)
+      for (const auto& [column, crossing] : chunk) crossings[column].push_back(crossing);
     // Columns in parallel: each writes only its own nodes.
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, columns, 64), [&](const tbb::blocked_range<std::size_t>& r) {
       for (std::size_t col = r.begin(); col != r.end(); ++col) {

@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <random>
 
@@ -78,6 +79,23 @@ TEST(LatticeMesh, CoversTheSurfaceAndEmbedsEveryVertexInItsParent) {
     // The kept tetrahedra hold the whole solid.
     EXPECT_GE(lm.mesh.num_elements() * c.h * c.h * c.h / 12.0, analyze_surface(c.surface).volume);
   }
+}
+
+TEST(LatticeMesh, BitwiseIdenticalForOneAndTwoThreads) {
+  TriangleMesh surface = make_torus(0.6, 0.2, 48, 24);
+  const auto bunny = test::asset("bunny00.off");
+  if (std::filesystem::exists(bunny)) surface = io::read_surface_mesh(bunny);
+  std::vector<LatticeMesh> meshes;
+  std::vector<Embedding> embeddings;
+  for (const int threads : {1, 2}) {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    meshes.push_back(build_lattice_mesh(surface, 0.04));
+    embeddings.push_back(embed(meshes.back(), surface.vertices));
+  }
+  EXPECT_TRUE(meshes[0].mesh.tets == meshes[1].mesh.tets);
+  EXPECT_TRUE(meshes[0].mesh.positions == meshes[1].mesh.positions);
+  EXPECT_EQ(embeddings[0].parent, embeddings[1].parent);
+  EXPECT_TRUE(embeddings[0].bary == embeddings[1].bary);
 }
 
 TEST(LatticeMesh, IsDeterministicAndAlignedToTheWorldGrid) {
