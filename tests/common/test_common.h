@@ -10,6 +10,8 @@
 #include <string>
 #include <string_view>
 
+#include "core/error.h"
+
 namespace goo::test {
 
 /// Expects every entry of `actual` within `tolerance` of `expected`, and
@@ -30,6 +32,19 @@ template <typename A, typename B>
       }
     }
   return ::testing::AssertionSuccess();
+}
+
+/// Runs `call` and expects a goo::Error whose message contains `expected`
+/// (an exception alone passes for the wrong reason).
+template <typename Call>
+::testing::AssertionResult throws_error_containing(Call&& call, std::string_view expected) {
+  try {
+    call();
+  } catch (const goo::Error& e) {
+    if (std::string_view(e.what()).find(expected) != std::string_view::npos) return ::testing::AssertionSuccess();
+    return ::testing::AssertionFailure() << "error \"" << e.what() << "\" does not mention \"" << expected << "\"";
+  }
+  return ::testing::AssertionFailure() << "no goo::Error thrown (expected one mentioning \"" << expected << "\")";
 }
 
 /// A fresh folder under the system temporary folder, removed at destruction.
