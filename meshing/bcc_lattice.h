@@ -4,6 +4,7 @@
 // o + (i + ½, j + ½, k + ½) h. A lattice tetrahedron is two face-adjacent
 // cell centres plus one edge of their shared face: 12 per cell, all
 // congruent (edges h, h and four of h√3/2; volume h³/12).
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -60,6 +61,46 @@ class BccLattice {
 
   /// The cell containing p (may be outside the block).
   [[nodiscard]] Eigen::Vector3i cell_of(const Eigen::Vector3d& p) const;
+
+  /// Calls f(key) for every valid tetrahedron of the block that may meet or
+  /// touch the box [lo, hi]: a tetrahedron of axis a keyed by its lower cell spans that
+  /// cell across a and reaches the next cell's centre along a, so its lower
+  /// cell is in [lo − 1, hi] along a and in [lo, hi] across. A superset:
+  /// filter by geometry.
+  template <class F>
+  void for_each_tet_near(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, F&& f) const {
+    // Widened by 1e-9 h so that a box touching a cell's boundary finds it.
+    const Eigen::Vector3d slack = Eigen::Vector3d::Constant(1e-9 * h_);
+    const Eigen::Vector3i lo_cell = cell_of(lo - slack).array().max(0);
+    const Eigen::Vector3i hi_cell = cell_of(hi + slack).array().min(cells_.array() - 1);
+    for (int shape = 0; shape < 12; ++shape) {
+      const int axis = shape / 4;
+      Eigen::Vector3i c0 = lo_cell;
+      c0[axis] = std::max(0, c0[axis] - 1);
+      for (int k = c0.z(); k <= hi_cell.z(); ++k)
+        for (int j = c0.y(); j <= hi_cell.y(); ++j)
+          for (int i = c0.x(); i <= hi_cell.x(); ++i) {
+            const Key key = tet_key({i, j, k}, axis, shape % 4);
+            if (valid(key)) f(key);
+          }
+    }
+  }
+
+  /// Calls f(key) for every node of the block in the closed box [lo, hi]
+  /// (corners first, then centres, each in increasing key order).
+  template <class F>
+  void for_each_node_in(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, F&& f) const {
+    for (const double shift : {0.0, 0.5}) {
+      const Eigen::Vector3i top = shift == 0.0 ? cells_ : Eigen::Vector3i(cells_.array() - 1);
+      const Eigen::Vector3i a =
+          (((lo - origin_) / h_).array() - shift).ceil().cast<int>().max(0).matrix();
+      const Eigen::Vector3i b =
+          (((hi - origin_) / h_).array() - shift).floor().cast<int>().min(top.array()).matrix();
+      for (int k = a.z(); k <= b.z(); ++k)
+        for (int j = a.y(); j <= b.y(); ++j)
+          for (int i = a.x(); i <= b.x(); ++i) f(shift == 0.0 ? corner_key({i, j, k}) : centre_key({i, j, k}));
+    }
+  }
 
  private:
   Eigen::Vector3d origin_;

@@ -67,7 +67,7 @@ BccLattice block_around(const TriangleMesh& surface, double h) {
 }  // namespace
 
 LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
-  LatticeMesh out{block_around(surface, h), {}, {}, {}, {}};
+  LatticeMesh out{block_around(surface, h), {}, {}, {}, {}, {}, {}};
   const BccLattice& lattice = out.lattice;
   const std::vector<std::uint8_t> inside = voxelize(lattice, surface);
   std::vector<std::uint8_t> keep(static_cast<std::size_t>(lattice.num_tet_keys()), 0);
@@ -97,32 +97,17 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
                                                   surface.vertices.row(surface.triangles(t, 2)).transpose()};
       const Eigen::Vector3d lo = tri[0].cwiseMin(tri[1]).cwiseMin(tri[2]),
                             hi = tri[0].cwiseMax(tri[1]).cwiseMax(tri[2]);
-      const Eigen::Vector3i lo_cell = lattice.cell_of(lo).array().max(0);
-      const Eigen::Vector3i hi_cell = lattice.cell_of(hi).array().min(lattice.cells().array() - 1);
-      for (int shape = 0; shape < 12; ++shape) {
-        // A tetrahedron of axis a keyed by its lower cell spans that cell's
-        // extent across a, and from its centre to the next centre along a: it
-        // can meet the triangle only if the lower cell is in [lo − 1, hi]
-        // along a and in [lo, hi] across.
-        const int axis = shape / 4;
-        Eigen::Vector3i c0 = lo_cell;
-        c0[axis] = std::max(0, c0[axis] - 1);
-        for (int k = c0.z(); k <= hi_cell.z(); ++k)
-          for (int j = c0.y(); j <= hi_cell.y(); ++j)
-            for (int i = c0.x(); i <= hi_cell.x(); ++i) {
-              const BccLattice::Key key = lattice.tet_key({i, j, k}, axis, shape % 4);
-              if (keep[static_cast<std::size_t>(key)] || !lattice.valid(key)) continue;
-              const auto tet = tet_positions(lattice, key);
-              Eigen::Vector3d tet_lo = tet[0], tet_hi = tet[0];
-              for (const auto& p : tet) {
-                tet_lo = tet_lo.cwiseMin(p);
-                tet_hi = tet_hi.cwiseMax(p);
-              }
-              if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any())
-                continue;
-              if (overlaps(tri, tet, slack)) found.push_back(key);
-            }
-      }
+      lattice.for_each_tet_near(lo, hi, [&](BccLattice::Key key) {
+        if (keep[static_cast<std::size_t>(key)]) return;
+        const auto tet = tet_positions(lattice, key);
+        Eigen::Vector3d tet_lo = tet[0], tet_hi = tet[0];
+        for (const auto& p : tet) {
+          tet_lo = tet_lo.cwiseMin(p);
+          tet_hi = tet_hi.cwiseMax(p);
+        }
+        if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any()) return;
+        if (overlaps(tri, tet, slack)) found.push_back(key);
+      });
     }
   });
   for (const auto& chunk : chunks)
@@ -142,14 +127,18 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
   out.mesh.positions.resize(static_cast<Eigen::Index>(out.node_keys.size()), 3);
   for (std::size_t i = 0; i < out.node_keys.size(); ++i)
     out.mesh.positions.row(static_cast<Eigen::Index>(i)) = lattice.position(out.node_keys[i]).transpose();
+  out.node_inside.resize(out.node_keys.size());
+  for (std::size_t i = 0; i < out.node_keys.size(); ++i)
+    out.node_inside[i] = inside[static_cast<std::size_t>(out.node_keys[i])];
+  out.node_of_key = std::move(node_id);
+  out.element_of_key.assign(static_cast<std::size_t>(lattice.num_tet_keys()), -1);
   out.mesh.tets.resize(static_cast<Eigen::Index>(out.tet_keys.size()), 4);
-  out.element_of.reserve(out.tet_keys.size());
   for (std::size_t e = 0; e < out.tet_keys.size(); ++e) {
     const auto nodes = lattice.tet_nodes(out.tet_keys[e]);
     for (int k = 0; k < 4; ++k)
       out.mesh.tets(static_cast<Eigen::Index>(e), k) =
-          node_id[static_cast<std::size_t>(nodes[static_cast<std::size_t>(k)])];
-    out.element_of.emplace(out.tet_keys[e], static_cast<Index>(e));
+          out.node_of_key[static_cast<std::size_t>(nodes[static_cast<std::size_t>(k)])];
+    out.element_of_key[static_cast<std::size_t>(out.tet_keys[e])] = static_cast<Index>(e);
   }
   return out;
 }
@@ -166,8 +155,8 @@ Embedding embed(const LatticeMesh& lm, const Points& vertices) {
       Index best = -1;
       Eigen::Vector4d best_b = Eigen::Vector4d::Constant(-1e300);
       if (const auto key = lattice.locate(p)) {
-        if (const auto it = lm.element_of.find(*key); it != lm.element_of.end()) {
-          best = it->second;
+        if (const Index e = lm.element(*key); e >= 0) {
+          best = e;
           best_b = lattice.barycentric(*key, p);
         }
       }
@@ -182,11 +171,11 @@ Embedding embed(const LatticeMesh& lm, const Points& vertices) {
               if ((c.array() < 0).any() || (c.array() >= lattice.cells().array()).any()) continue;
               for (int shape = 0; shape < 12; ++shape) {
                 const BccLattice::Key key = lattice.tet_key(c, shape / 4, shape % 4);
-                const auto it = lm.element_of.find(key);
-                if (it == lm.element_of.end()) continue;
+                const Index e = lm.element(key);
+                if (e < 0) continue;
                 const Eigen::Vector4d b = lattice.barycentric(key, p);
-                if (b.minCoeff() > best_b.minCoeff() || (b.minCoeff() == best_b.minCoeff() && it->second < best)) {
-                  best = it->second;
+                if (b.minCoeff() > best_b.minCoeff() || (b.minCoeff() == best_b.minCoeff() && e < best)) {
+                  best = e;
                   best_b = b;
                 }
               }

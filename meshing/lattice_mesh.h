@@ -2,7 +2,7 @@
 // The tetrahedral mesh cut from the BCC lattice around a closed surface, and
 // the surface embedded in it (W&T secs. 4–5).
 #include <Eigen/SparseCore>
-#include <unordered_map>
+#include <cstdint>
 #include <vector>
 
 #include "core/tet_mesh.h"
@@ -16,7 +16,21 @@ struct LatticeMesh {
   TetMesh mesh;                                           ///< compact nodes and tets, positively oriented
   std::vector<BccLattice::Key> node_keys;                 ///< #N lattice key of each node (increasing)
   std::vector<BccLattice::Key> tet_keys;                  ///< #E lattice key of each tet (increasing)
-  std::unordered_map<BccLattice::Key, Index> element_of;  ///< lattice tet key → element
+  std::vector<std::uint8_t> node_inside;                  ///< #N 1 if the node is inside the surface (exact)
+  std::vector<Index> element_of_key;                      ///< lattice tet key → element, −1 if not kept
+  std::vector<Index> node_of_key;                         ///< lattice node key → node, −1 if not in the mesh
+
+  /// The element of a lattice tetrahedron key (−1 if not kept or outside the block).
+  [[nodiscard]] Index element(BccLattice::Key tet) const {
+    return tet >= 0 && tet < static_cast<BccLattice::Key>(element_of_key.size())
+               ? element_of_key[static_cast<std::size_t>(tet)]
+               : -1;
+  }
+  /// The node of a lattice node key (−1 if not in the mesh or outside the block).
+  [[nodiscard]] Index node(BccLattice::Key key) const {
+    return key >= 0 && key < static_cast<BccLattice::Key>(node_of_key.size()) ? node_of_key[static_cast<std::size_t>(key)]
+                                                                              : -1;
+  }
 };
 
 /// The lattice block of spacing h around `surface` (aligned to the world

@@ -1,0 +1,38 @@
+#pragma once
+// Exact sub-element masses (W&T sec. 6): the solid inside each element,
+// clipped from the closed surface, and node masses spread from it with
+// barycentric weights, so total mass and centre of mass are exact.
+#include <span>
+
+#include "core/triangle_mesh.h"
+#include "meshing/lattice_mesh.h"
+
+namespace goo {
+
+/// Volume and centroid of (solid ∩ element) for every element.
+struct ElementSolid {
+  Eigen::VectorXd volume;  ///< #E, m³
+  Points centroid;         ///< #E×3 (the element's centroid where the volume is 0)
+};
+
+/// Clips the closed, outward-oriented surface to every element of a lattice
+/// mesh built around it, in the mesh's current positions (lattice positions:
+/// what a fresh mesh has). Divergence theorem with the apex at an element
+/// vertex p (algorithms.md, "Exact sub-element mass"): the three faces through
+/// p contribute nothing; each clipped surface piece P contributes its cone
+/// from p minus the cone over its central projection P′ onto the face
+/// opposite p (the region of the element behind P seen from p), and the
+/// whole element counts once more if p is inside. The apex is the vertex
+/// farthest from the planes of the pieces, so it never lies on the surface;
+/// its inside flag is the exact one of the voxelisation.
+ElementSolid clip_solid_to_elements(const LatticeMesh& lattice_mesh, const TriangleMesh& surface);
+
+/// Node masses (W&T eq. 5): element e holds m = ρ V_e / det(Fe_e) (ρ V_e if
+/// `det_Fe` is empty) and gives b_i(c_e) m to its node i, b the barycentric
+/// coordinates of the solid's centroid. Then masses below
+/// min_mass_fraction × ρ h³ / 2 (the mass of a node whose 24 elements are
+/// all full) are raised to it.
+Eigen::VectorXd exact_node_masses(const LatticeMesh& lattice_mesh, const ElementSolid& solid, double density,
+                                  std::span<const double> det_Fe, double min_mass_fraction);
+
+}  // namespace goo
