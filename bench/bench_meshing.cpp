@@ -7,6 +7,7 @@
 
 #include "core/surface_check.h"
 #include "io/surface_mesh_io.h"
+#include "meshing/exact_mass.h"
 #include "meshing/lattice_mesh.h"
 #include "meshing/voxelize.h"
 
@@ -70,5 +71,20 @@ void BM_Embed(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * mesh->num_vertices());
 }
 BENCHMARK(BM_Embed)->Apply(configure);
+
+/// Exact sub-element masses: the surface clipped to every element, then
+/// the node masses.
+void BM_ExactMass(benchmark::State& state) {
+  const goo::TriangleMesh* mesh = model(static_cast<int>(state.range(0)));
+  if (!mesh) return state.SkipWithError("assets missing: run scripts/fetch-assets");
+  const goo::LatticeMesh lm =
+      goo::build_lattice_mesh(*mesh, spacing_for(*mesh, 1000.0 * static_cast<double>(state.range(1))));
+  for (auto _ : state) {
+    const goo::ElementSolid solid = goo::clip_solid_to_elements(lm, *mesh);
+    benchmark::DoNotOptimize(goo::exact_node_masses(lm, solid, 1000.0, {}, 0.0));
+  }
+  state.counters["tets"] = lm.mesh.num_elements();
+}
+BENCHMARK(BM_ExactMass)->Apply(configure);
 
 }  // namespace
