@@ -1,0 +1,149 @@
+#include "solvers/remesh.h"
+
+#include <Eigen/Cholesky>
+#include <cmath>
+
+#include "core/elastic_forces.h"
+#include "core/error.h"
+#include "core/log.h"
+#include "core/parallel.h"
+#include "core/plasticity.h"
+#include "core/surface_geometry.h"
+#include "meshing/exact_mass.h"
+#include "meshing/remesh_trigger.h"
+#include "meshing/transfer.h"
+
+namespace goo {
+namespace {
+
+/// A body at rest on a fresh lattice mesh: rest shape from the lattice's
+/// table (every element is congruent), F = Fp = I, masses left empty.
+Body body_on_lattice(const LatticeMesh& lm, const Material& material) {
+  validate(material);
+  Body body;
+  body.material = material;
+  body.rest_positions = lm.mesh.positions;
+  body.positions = lm.mesh.positions;
+  body.velocities = Points::Zero(lm.mesh.num_nodes(), 3);
+  body.tets = lm.mesh.tets;
+  const Index ne = body.num_elements();
+  body.Dm_inv.resize(at(ne));
+  for (Index e = 0; e < ne; ++e) body.Dm_inv[at(e)] = lm.lattice.Dm_inv(lm.tet_keys[at(e)]);
+  body.rest_volumes = Eigen::VectorXd::Constant(ne, lm.lattice.tet_volume());
+  body.Fp.assign(at(ne), Eigen::Matrix3d::Identity());
+  body.alpha = Eigen::VectorXd::Zero(ne);
+  // κ(Dm) = κ(Dm⁻¹), the same for every lattice tetrahedron.
+  body.rest_condition = Eigen::VectorXd::Constant(ne, ne > 0 ? condition_number(body.Dm_inv[0]) : 1.0);
+  body.incidence = NodeIncidence::build(body.tets, body.num_nodes());
+  return body;
+}
+
+struct Totals {
+  double mass = 0.0;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  Eigen::Vector3d momentum = Eigen::Vector3d::Zero();
+};
+
+Totals totals(const Eigen::VectorXd& m, const Points& x, const Points& v) {
+  std::array<CompensatedSum, 7> s;
+  for (Index n = 0; n < m.size(); ++n) {
+    s[0].add(m[n]);
+    for (int k = 0; k < 3; ++k) {
+      s[static_cast<std::size_t>(1 + k)].add(m[n] * x(n, k));
+      s[static_cast<std::size_t>(4 + k)].add(m[n] * v(n, k));
+    }
+  }
+  Totals t;
+  t.mass = s[0].value();
+  t.centre = Eigen::Vector3d(s[1].value(), s[2].value(), s[3].value()) / t.mass;
+  t.momentum = Eigen::Vector3d(s[4].value(), s[5].value(), s[6].value());
+  return t;
+}
+
+}  // namespace
+
+MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, double h) {
+  MeshedBody out{Body{}, build_lattice_mesh(surface, h), surface.triangles, Embedding{}};
+  out.body = body_on_lattice(out.lattice_mesh, material);
+  const ElementSolid solid = clip_solid_to_elements(out.lattice_mesh, surface);
+  out.body.masses = exact_node_masses(out.lattice_mesh, solid, material.density, {}, material.min_mass_fraction);
+  out.embedding = embed(out.lattice_mesh, surface.vertices);
+  return out;
+}
+
+MeshedBody remesh(const Body& old, const TriangleMesh& surface, double h, RemeshReport* report) {
+  MeshedBody out{Body{}, build_lattice_mesh(surface, h), surface.triangles, Embedding{}};
+  const LatticeMesh& lm = out.lattice_mesh;
+  Body& body = out.body;
+  body = body_on_lattice(lm, old.material);
+
+  // Velocities: interpolation in the old deformed elements.
+  const NodeSources sources = locate_in_old_mesh(old.tets, old.positions, lm);
+  body.velocities = interpolate(sources, old.tets, old.velocities);
+
+  // Elastic state: Fe = F Fp⁻¹ of the old elements, averaged as left stretches.
+  std::vector<Eigen::Matrix3d> old_Fe(at(old.num_elements()));
+  for (Index e = 0; e < old.num_elements(); ++e)
+    old_Fe[at(e)] = deformation_gradient(old, old.positions, e) * old.Fp[at(e)].inverse();
+  const ElementOverlaps overlaps = element_overlaps(old.tets, old.positions, lm);
+  const ElasticState state =
+      transfer_elastic_state(overlaps, sources, old_Fe, old.alpha, lm, kPlasticMinSingularValue);
+  std::vector<double> det_Fe(at(body.num_elements()));
+  for (Index e = 0; e < body.num_elements(); ++e) {
+    // F = I on the new mesh, so Fe = Fp⁻¹: Fp = Fe⁻¹ (det Fp = 1 / det Fe).
+    body.Fp[at(e)] = state.Fe[at(e)].inverse();
+    det_Fe[at(e)] = state.Fe[at(e)].determinant();
+  }
+  body.alpha = state.alpha;
+
+  // Exact masses of the transferred state, clamped.
+  const ElementSolid solid = clip_solid_to_elements(lm, surface);
+  body.masses = exact_node_masses(lm, solid, old.material.density, det_Fe, old.material.min_mass_fraction);
+
+  // Conservation: m_i ← m_i (a + g·(x_i − c)) restores total mass and centre
+  // of mass (a = M_old / M_new; g solves Σ m (x − c)(x − c)ᵀ g = M_old (c_old − c_new));
+  // a uniform Δv restores linear momentum.
+  const Totals before = totals(old.masses, old.positions, old.velocities);
+  const Totals now = totals(body.masses, body.positions, body.velocities);
+  const double size = bounding_box(surface.vertices).diagonal().norm();
+  const double speed = old.velocities.rowwise().norm().maxCoeff();
+  if (report) {
+    report->old_elements = old.num_elements();
+    report->new_elements = body.num_elements();
+    report->new_nodes = body.num_nodes();
+    report->extrapolated_nodes = sources.extrapolated;
+    report->mass_error = std::abs(now.mass - before.mass) / before.mass;
+    report->centre_error = (now.centre - before.centre).norm() / size;
+    report->momentum_error = speed > 0.0 ? (now.momentum - before.momentum).norm() / (before.mass * speed) : 0.0;
+  }
+  Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
+  for (Index n = 0; n < body.num_nodes(); ++n) {
+    const Eigen::Vector3d d = body.positions.row(n).transpose() - now.centre;
+    second += body.masses[n] * d * d.transpose();
+  }
+  const double a = before.mass / now.mass;
+  const Eigen::LDLT<Eigen::Matrix3d> ldlt(second);
+  const Eigen::Vector3d g = ldlt.info() == Eigen::Success && ldlt.isPositive()
+                                ? Eigen::Vector3d(ldlt.solve(before.mass * (before.centre - now.centre)))
+                                : Eigen::Vector3d::Zero();
+  bool plausible = std::isfinite(a) && g.allFinite();
+  Eigen::VectorXd scale(body.num_nodes());
+  for (Index n = 0; n < body.num_nodes(); ++n) {
+    scale[n] = a + g.dot(body.positions.row(n).transpose() - now.centre);
+    plausible = plausible && scale[n] > 0.5 && scale[n] < 2.0;
+  }
+  if (plausible) {
+    body.masses = body.masses.cwiseProduct(scale);
+    const Totals corrected = totals(body.masses, body.positions, body.velocities);
+    const Eigen::RowVector3d dv = ((before.momentum - corrected.momentum) / corrected.mass).transpose();
+    body.velocities.rowwise() += dv;
+  } else {
+    log().warn("re-mesh: the transferred masses are too far from the old ones to correct (mass ratio {}); kept as "
+               "they are",
+               a);
+  }
+  out.embedding = embed(lm, surface.vertices);
+  return out;
+}
+
+}  // namespace goo

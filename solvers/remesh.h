@@ -1,0 +1,57 @@
+#pragma once
+// Meshing a body around its surface, and re-meshing it in its current
+// configuration with its state carried across (W&T secs. 5, 6 and 8;
+// architecture.md, "Remesh semantics").
+#include "core/body.h"
+#include "core/triangle_mesh.h"
+#include "meshing/lattice_mesh.h"
+
+namespace goo {
+
+/// A body on a lattice mesh, with its surface embedded in it.
+struct MeshedBody {
+  Body body;
+  LatticeMesh lattice_mesh;  ///< the lattice mesh as built (rest configuration)
+  Triangles surface_triangles;
+  Embedding embedding;
+
+  /// The surface at the body's current positions: x_s = W x.
+  [[nodiscard]] TriangleMesh surface() const {
+    return {embedding.surface_positions(body.tets, body.positions), surface_triangles};
+  }
+};
+
+/// What a re-mesh did, and how far the transferred state missed the
+/// conserved totals before the conservation step (discretisation error of
+/// the averaged density; round-off when the old state was uniform).
+struct RemeshReport {
+  Index old_elements = 0;
+  Index new_elements = 0;
+  Index new_nodes = 0;
+  Index extrapolated_nodes = 0;  ///< new nodes outside every old element
+  double mass_error = 0.0;       ///< |M_new − M_old| / M_old
+  double centre_error = 0.0;     ///< |c_new − c_old| / (size of the surface's bounding box)
+  double momentum_error = 0.0;   ///< |P_new − P_old| / (M_old max |v_old|), 0 at rest
+};
+
+/// The first mesh of a body: every lattice tetrahedron of spacing h around
+/// the closed surface, rest shape = lattice shape, F = Fp = I, at rest,
+/// exact sub-element masses (clamped by material.min_mass_fraction).
+MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, double h);
+
+/// A new lattice mesh of spacing h around the current surface (`surface`:
+/// the body's triangles at their current, embedded positions), with rest
+/// shape = current shape, so F = I and Fp = Fe⁻¹ for the transferred
+/// elastic deformation Fe (algorithms.md, "Remeshing"):
+/// - velocities interpolated in the old deformed elements (extrapolated
+///   from the nearest outside them): exact for affine fields;
+/// - left stretch and α averaged with exact old/new overlap volumes;
+/// - exact masses m = ρ V / det Fe, clamped;
+/// - conservation: masses scaled by a + g·(x − c) and velocities shifted
+///   uniformly so that total mass, centre of mass and linear momentum equal
+///   the old body's (both corrections vanish to round-off when the old state
+///   is uniform; their size before correction is in the report).
+/// The surface does not move: it is re-embedded at the same positions.
+MeshedBody remesh(const Body& body, const TriangleMesh& surface, double h, RemeshReport* report = nullptr);
+
+}  // namespace goo

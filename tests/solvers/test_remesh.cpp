@@ -1,0 +1,197 @@
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <random>
+
+#include "core/elastic_forces.h"
+#include "core/primitives.h"
+#include "core/surface_geometry.h"
+#include "meshing/transfer.h"
+#include "solvers/newmark.h"
+#include "solvers/remesh.h"
+#include "tests/common/test_common.h"
+
+namespace goo {
+namespace {
+
+Material jelly() {
+  Material m;
+  m.density = 1100.0;
+  m.youngs_modulus = 2e4;
+  m.poisson_ratio = 0.35;
+  m.model = ElasticModel::neo_hookean;
+  return m;
+}
+
+/// Cauchy stress σ = P Feᵀ / det Fe: what an isotropic material's state is.
+Eigen::Matrix3d cauchy(const Material& material, const Eigen::Matrix3d& Fe) {
+  const IsotropicEnergy energy(material);
+  return first_piola(energy, svd3(Fe)) * Fe.transpose() / Fe.determinant();
+}
+
+/// The stretch of the test bodies: rotated, unequal along three axes.
+Eigen::Matrix3d stretch_and_rotation() {
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1.0, -2.0, 0.5).normalized()).toRotationMatrix();
+  return R * Eigen::Vector3d(1.2, 0.9, 1.05).asDiagonal();
+}
+
+/// A sphere meshed at spacing h, then moved by x ↦ A x + t (a uniform
+/// elastic state Fe = A) with velocities v = B x + c.
+MeshedBody moved_sphere(double h, const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) {
+  MeshedBody mb = mesh_body(make_sphere(0.5, 20), jelly(), h);
+  const Eigen::RowVector3d t(0.3, -0.2, 0.1), c(0.5, 1.0, -2.0);
+  mb.body.positions = (mb.body.rest_positions * A.transpose()).rowwise() + t;
+  mb.body.velocities = (mb.body.positions * B.transpose()).rowwise() + c;
+  return mb;
+}
+
+TEST(Remesh, ReproducesAnAffineVelocityFieldIncludingExtrapolatedNodes) {
+  const Eigen::Matrix3d B = (Eigen::Matrix3d() << 0.1, -0.4, 0.2, 0.4, 0.05, -0.3, -0.2, 0.3, -0.1).finished();
+  const MeshedBody old = moved_sphere(0.1, stretch_and_rotation(), B);
+  RemeshReport report;
+  // A coarser new mesh reaches beyond the old one: extrapolated nodes.
+  const MeshedBody mb = remesh(old.body, old.surface(), 0.17, &report);
+  EXPECT_GT(report.extrapolated_nodes, 0);
+  const Points expected = (mb.body.positions * B.transpose()).rowwise() + Eigen::RowVector3d(0.5, 1.0, -2.0);
+  EXPECT_TRUE(test::matrices_near(mb.body.velocities, expected, 1e-12 * expected.cwiseAbs().maxCoeff()));
+}
+
+TEST(Remesh, KeepsAUniformlyStretchedAndRotatedBodysStress) {
+  const Eigen::Matrix3d A = stretch_and_rotation();
+  const MeshedBody old = moved_sphere(0.1, A, Eigen::Matrix3d::Zero());
+  const MeshedBody mb = remesh(old.body, old.surface(), 0.13);
+  const Eigen::Matrix3d expected = cauchy(jelly(), A);
+  ASSERT_GT(expected.norm(), 1e3);
+  // Rest shape = current shape (F = I); the state lives in Fp = Fe⁻¹.
+  EXPECT_TRUE(mb.body.positions == mb.body.rest_positions);
+  for (Index e = 0; e < mb.body.num_elements(); ++e) {
+    const Eigen::Matrix3d Fe = deformation_gradient(mb.body, mb.body.positions, e) * mb.body.Fp[static_cast<std::size_t>(e)].inverse();
+    ASSERT_LT((cauchy(jelly(), Fe) - expected).norm(), 1e-10 * expected.norm()) << "element " << e;
+  }
+  // And the elastic forces on the new nodes are those of that stress:
+  // interior nodes feel none, the net force is zero.
+  ElasticForces forces;
+  Body body = mb.body;
+  Points f;
+  forces.evaluate(body, body.positions, 0.0, f);
+  EXPECT_LT(f.colwise().sum().norm(), 1e-9 * expected.norm() * 0.13 * 0.13);
+}
+
+// Elements with the same stretch but different rotations (Fe_e = s R_e, a
+// stress-free reference turned arbitrarily): their left stretches agree, so
+// the new elements carry exactly that stress. Averaging raw Fe would blend
+// the rotations and shrink the state.
+TEST(Remesh, AveragesLeftStretchesNotRotations) {
+  MeshedBody old = mesh_body(make_sphere(0.5, 20), jelly(), 0.1);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double s = 1.1;
+  for (auto& Fp : old.body.Fp) {
+    const Eigen::Matrix3d R =
+        Eigen::AngleAxisd(2.0 * u(rng), Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized()).toRotationMatrix();
+    Fp = (s * R).inverse();
+  }
+  const MeshedBody mb = remesh(old.body, old.surface(), 0.13);
+  const Eigen::Matrix3d expected = cauchy(jelly(), s * Eigen::Matrix3d::Identity());
+  for (Index e = 0; e < mb.body.num_elements(); ++e) {
+    const Eigen::Matrix3d Fe = mb.body.Fp[static_cast<std::size_t>(e)].inverse();
+    ASSERT_LT((cauchy(jelly(), Fe) - expected).norm(), 1e-10 * expected.norm()) << "element " << e;
+  }
+}
+
+TEST(Remesh, DoesNotMoveTheSurfaceAndConservesMassCentreAndMomentum) {
+  const Eigen::Matrix3d B = (Eigen::Matrix3d() << 0.0, -0.4, 0.2, 0.4, 0.0, -0.3, -0.2, 0.3, 0.0).finished();
+  const MeshedBody old = moved_sphere(0.1, stretch_and_rotation(), B);
+  const TriangleMesh surface = old.surface();
+  RemeshReport report;
+  const MeshedBody mb = remesh(old.body, surface, 0.12, &report);
+  const double size = bounding_box(surface.vertices).diagonal().norm();
+  EXPECT_TRUE(test::matrices_near(mb.surface().vertices, surface.vertices, 1e-14 * size));
+  // A uniform state: the exact masses of the new mesh already carry the old
+  // totals (the correction is round-off).
+  EXPECT_LT(report.mass_error, 1e-12);
+  EXPECT_LT(report.centre_error, 1e-12);
+  EXPECT_LT(report.momentum_error, 1e-12);
+  const double M = old.body.masses.sum();
+  EXPECT_NEAR(mb.body.masses.sum(), M, 1e-13 * M);
+  const Eigen::Vector3d c_old = old.body.positions.transpose() * old.body.masses / M;
+  const Eigen::Vector3d c_new = mb.body.positions.transpose() * mb.body.masses / M;
+  EXPECT_LT((c_new - c_old).norm(), 1e-13 * size);
+  EXPECT_LT((linear_momentum(mb.body) - linear_momentum(old.body)).norm(), 1e-13 * linear_momentum(old.body).norm() + 1e-13 * M);
+}
+
+// A non-uniform state: averaging makes the new density differ from the old
+// one by a discretisation error; the correction restores the totals exactly.
+TEST(Remesh, ConservationCorrectionRestoresTheTotalsOfANonUniformState) {
+  MeshedBody old = moved_sphere(0.1, stretch_and_rotation(), Eigen::Matrix3d::Zero());
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (Index n = 0; n < old.body.num_nodes(); ++n)
+    for (int k = 0; k < 3; ++k) {
+      old.body.positions(n, k) += 0.01 * u(rng);
+      old.body.velocities(n, k) = u(rng);
+    }
+  const TriangleMesh surface = old.surface();
+  RemeshReport report;
+  const MeshedBody mb = remesh(old.body, surface, 0.1, &report);
+  EXPECT_GT(report.mass_error, 1e-9);  // the discrepancy the correction removes is real
+  EXPECT_LT(report.mass_error, 0.05);
+  const double M = old.body.masses.sum();
+  EXPECT_NEAR(mb.body.masses.sum(), M, 1e-13 * M);
+  EXPECT_GT(mb.body.masses.minCoeff(), 0.0);
+  const Eigen::Vector3d c_old = old.body.positions.transpose() * old.body.masses / M;
+  const Eigen::Vector3d c_new = mb.body.positions.transpose() * mb.body.masses / M;
+  EXPECT_LT((c_new - c_old).norm(), 1e-13);
+  EXPECT_LT((linear_momentum(mb.body) - linear_momentum(old.body)).norm(), 1e-12 * M);
+}
+
+// Gravity only, no stress: re-meshing every step changes nothing but the
+// mesh. The surface falls as x0 + v0 t + ½ g t² (Newmark is exact for a
+// constant acceleration) in both runs.
+TEST(Remesh, StressFreeBodyRemeshedEveryStepFallsLikeOneNeverRemeshed) {
+  Material soft = jelly();
+  soft.youngs_modulus = 50.0;  // a stability limit far above the step
+  soft.min_mass_fraction = 0.1;
+  const TriangleMesh start = make_torus(0.4, 0.15, 24, 12);
+  NewmarkSettings settings;
+  settings.max_time_step = 1e-3;
+  const Eigen::RowVector3d v0(0.4, -0.1, 1.5);
+  MeshedBody plain = mesh_body(start, soft, 0.09), remeshed = plain;
+  plain.body.velocities.rowwise() = v0;
+  remeshed.body.velocities.rowwise() = v0;
+  NewmarkIntegrator a(settings, {}), b(settings, {});
+  const int steps = 15;
+  for (int i = 0; i < steps; ++i) {
+    ASSERT_DOUBLE_EQ(a.step(plain.body, 1e-3).dt, 1e-3);
+    ASSERT_DOUBLE_EQ(b.step(remeshed.body, 1e-3).dt, 1e-3);
+    remeshed = remesh(remeshed.body, remeshed.surface(), 0.09);
+    b.invalidate();
+  }
+  const double t = steps * 1e-3;
+  const Points expected =
+      (start.vertices.rowwise() + v0 * t).rowwise() + 0.5 * t * t * settings.gravity.transpose();
+  const double size = 1.2;
+  EXPECT_TRUE(test::matrices_near(plain.surface().vertices, expected, 1e-12 * size));
+  EXPECT_TRUE(test::matrices_near(remeshed.surface().vertices, expected, 1e-12 * size));
+  for (Index n = 0; n < remeshed.body.num_nodes(); ++n)
+    ASSERT_LT((remeshed.body.velocities.row(n) - (v0 + t * settings.gravity.transpose())).norm(), 1e-10);
+}
+
+TEST(Remesh, SameBitsForAnyThreadCount) {
+  const Eigen::Matrix3d B = (Eigen::Matrix3d() << 0.0, -0.4, 0.2, 0.4, 0.0, -0.3, -0.2, 0.3, 0.0).finished();
+  MeshedBody old = moved_sphere(0.1, stretch_and_rotation(), B);
+  old.body.positions(3, 0) += 0.01;  // not uniform
+  const TriangleMesh surface = old.surface();
+  auto with_threads = [&](int threads) {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    return remesh(old.body, surface, 0.11);
+  };
+  const MeshedBody one = with_threads(1), two = with_threads(2);
+  EXPECT_TRUE(one.body.masses == two.body.masses);
+  EXPECT_TRUE(one.body.velocities == two.body.velocities);
+  EXPECT_TRUE(one.body.Fp == two.body.Fp);
+  EXPECT_TRUE(one.body.alpha == two.body.alpha);
+}
+
+}  // namespace
+}  // namespace goo
