@@ -75,14 +75,12 @@ class BccLattice {
     const Eigen::Vector3i hi_cell = cell_of(hi + slack).array().min(cells_.array() - 1);
     for (int shape = 0; shape < 12; ++shape) {
       const int axis = shape / 4;
-      Eigen::Vector3i c0 = lo_cell;
+      Eigen::Vector3i c0 = lo_cell, c1 = hi_cell;
       c0[axis] = std::max(0, c0[axis] - 1);
-      for (int k = c0.z(); k <= hi_cell.z(); ++k)
-        for (int j = c0.y(); j <= hi_cell.y(); ++j)
-          for (int i = c0.x(); i <= hi_cell.x(); ++i) {
-            const Key key = tet_key({i, j, k}, axis, shape % 4);
-            if (valid(key)) f(key);
-          }
+      c1[axis] = std::min(c1[axis], cells_[axis] - 2);  // the upper cell is in the block: valid
+      for (int k = c0.z(); k <= c1.z(); ++k)
+        for (int j = c0.y(); j <= c1.y(); ++j)
+          for (int i = c0.x(); i <= c1.x(); ++i) f(tet_key({i, j, k}, axis, shape % 4));
     }
   }
 

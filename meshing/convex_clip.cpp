@@ -22,10 +22,20 @@ double snapped(const Plane& plane, const Eigen::Vector3d& p, double tolerance) {
   return std::abs(d) <= tolerance ? 0.0 : d;
 }
 
+/// Points of a cut, collected from the clipped faces.
+struct CutPoints {
+  static constexpr int kCapacity = 48;
+  std::array<Eigen::Vector3d, kCapacity> p;
+  int size = 0;
+  void push_back(const Eigen::Vector3d& x) {
+    if (size < kCapacity) p[static_cast<std::size_t>(size++)] = x;
+  }
+};
+
 /// Sutherland–Hodgman with snapped distances; points on the plane are also
 /// appended to `on_plane` (the cap's vertices).
-Polygon clip_snapped(const Polygon& polygon, const Plane& plane, double tolerance,
-                     std::vector<Eigen::Vector3d>* on_plane) {
+template <class Sink>
+Polygon clip_snapped(const Polygon& polygon, const Plane& plane, double tolerance, Sink* on_plane) {
   Polygon out;
   if (polygon.size == 0) return out;
   std::array<double, Polygon::kCapacity> d{};
@@ -62,7 +72,7 @@ std::array<Plane, 4> tet_planes(const std::array<Eigen::Vector3d, 4>& x) {
 }
 
 Polygon clip(const Polygon& polygon, const Plane& plane) {
-  return clip_snapped(polygon, plane, 0.0, nullptr);
+  return clip_snapped<CutPoints>(polygon, plane, 0.0, nullptr);
 }
 
 void ConeIntegrals::add_cone(const Eigen::Vector3d& apex, const Polygon& base, double sign) {
@@ -81,12 +91,31 @@ void ConeIntegrals::add_cone(const Eigen::Vector3d& apex, const Polygon& base, d
 
 double tet_overlap_volume(const std::array<Eigen::Vector3d, 4>& a, const std::array<Eigen::Vector3d, 4>& b,
                           double tolerance) {
+  return tet_overlap_volume(a, tet_planes(a), b, tet_planes(b), tolerance);
+}
+
+double tet_overlap_volume(const std::array<Eigen::Vector3d, 4>& a, const std::array<Plane, 4>& a_planes,
+                          const std::array<Eigen::Vector3d, 4>& b, const std::array<Plane, 4>& b_planes,
+                          double tolerance) {
+  // b against a's planes first: separated (a plane of a has b wholly
+  // outside) or contained (b wholly inside a) without clipping.
+  bool b_inside_a = true;
+  for (const Plane& plane : a_planes) {
+    int outside = 0;
+    for (const auto& p : b) {
+      const double d = snapped(plane, p, tolerance);
+      outside += d >= 0.0;
+      b_inside_a = b_inside_a && d <= 0.0;
+    }
+    if (outside == 4) return 0.0;
+  }
+  if (b_inside_a) return std::max(0.0, (b[1] - b[0]).dot((b[2] - b[0]).cross(b[3] - b[0])) / 6.0);
   std::array<Polygon, 8> faces;
   int num_faces = 4;
   for (std::size_t k = 0; k < 4; ++k)
     for (const int i : kTetFaces[k]) faces[k].push(a[static_cast<std::size_t>(i)]);
-  std::vector<Eigen::Vector3d> cap;
-  for (const Plane& plane : tet_planes(b)) {
+  CutPoints cap;
+  for (const Plane& plane : b_planes) {
     bool any_inside = false, any_outside = false;
     for (int f = 0; f < num_faces; ++f)
       for (int i = 0; i < faces[static_cast<std::size_t>(f)].size; ++i) {
@@ -96,28 +125,36 @@ double tet_overlap_volume(const std::array<Eigen::Vector3d, 4>& a, const std::ar
       }
     if (!any_inside) return 0.0;  // on or beyond the plane: touching at most
     if (!any_outside) continue;   // wholly on the kept side
-    cap.clear();
+    cap.size = 0;
     int kept = 0;
     for (int f = 0; f < num_faces; ++f) {
       Polygon clipped = clip_snapped(faces[static_cast<std::size_t>(f)], plane, tolerance, &cap);
       if (clipped.size >= 3) faces[static_cast<std::size_t>(kept++)] = clipped;
     }
     num_faces = kept;
-    if (cap.size() < 3 || num_faces >= 8) continue;
+    if (cap.size < 3 || num_faces >= 8) continue;
     // The cap: the cut's points in counter-clockwise order about the plane's
-    // normal (it is the outward normal of the kept part there).
+    // normal (it is the outward normal of the kept part there), sorted by a
+    // pseudo-angle (monotone in the angle, no trigonometry).
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-    for (const auto& p : cap) centre += p;
-    centre /= static_cast<double>(cap.size());
+    for (int i = 0; i < cap.size; ++i) centre += cap.p[static_cast<std::size_t>(i)];
+    centre /= static_cast<double>(cap.size);
     const Eigen::Vector3d u = plane.normal.unitOrthogonal(), w = plane.normal.cross(u);
-    std::vector<std::pair<double, Eigen::Vector3d>> around;
-    around.reserve(cap.size());
-    for (const auto& p : cap) around.emplace_back(std::atan2((p - centre).dot(w), (p - centre).dot(u)), p);
-    std::sort(around.begin(), around.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+    std::array<std::pair<double, int>, CutPoints::kCapacity> around;
+    for (int i = 0; i < cap.size; ++i) {
+      const Eigen::Vector3d d = cap.p[static_cast<std::size_t>(i)] - centre;
+      const double x = d.dot(u), y = d.dot(w);
+      const double r = std::abs(x) + std::abs(y);
+      const double t = r > 0.0 ? y / r : 0.0;  // in [−1, 1] along the diamond
+      around[static_cast<std::size_t>(i)] = {x >= 0.0 ? t : (y >= 0.0 ? 2.0 - t : -2.0 - t), i};
+    }
+    std::sort(around.begin(), around.begin() + cap.size);
     Polygon& lid = faces[static_cast<std::size_t>(num_faces)];
     lid.size = 0;
-    for (const auto& [angle, p] : around)
+    for (int i = 0; i < cap.size; ++i) {
+      const Eigen::Vector3d& p = cap.p[static_cast<std::size_t>(around[static_cast<std::size_t>(i)].second)];
       if (lid.size == 0 || (p - lid.v[static_cast<std::size_t>(lid.size - 1)]).squaredNorm() > 0.0) lid.push(p);
+    }
     if (lid.size >= 3) ++num_faces;
   }
   ConeIntegrals integrals;

@@ -17,10 +17,11 @@ struct Plane {
   [[nodiscard]] double distance(const Eigen::Vector3d& p) const { return normal.dot(p) - offset; }
 };
 
-/// A convex polygon of at most kCapacity vertices (a triangle clipped by
-/// the four planes of a tetrahedron has at most 7).
+/// A convex polygon of at most kCapacity vertices (a triangle or a
+/// tetrahedron's face clipped by the four planes of another has at most 7;
+/// a cut through a tetrahedron clipped by three planes, at most 7).
 struct Polygon {
-  static constexpr int kCapacity = 16;
+  static constexpr int kCapacity = 10;
   std::array<Eigen::Vector3d, kCapacity> v;
   int size = 0;
   void push(const Eigen::Vector3d& p) {
@@ -52,6 +53,10 @@ struct ConeIntegrals {
 /// coincide or touch: vertices within `tolerance` of a plane count as on it,
 /// a polyhedron on one side of a plane is kept whole or dropped whole.
 double tet_overlap_volume(const std::array<Eigen::Vector3d, 4>& a, const std::array<Eigen::Vector3d, 4>& b,
+                          double tolerance);
+/// The same with both tetrahedra's planes given (tet_planes), when they are reused.
+double tet_overlap_volume(const std::array<Eigen::Vector3d, 4>& a, const std::array<Plane, 4>& a_planes,
+                          const std::array<Eigen::Vector3d, 4>& b, const std::array<Plane, 4>& b_planes,
                           double tolerance);
 
 /// Distance from p to a triangle (closest point by region, Ericson 2005).
