@@ -4,8 +4,10 @@
 #include <string_view>
 #include <vector>
 
+#include "core/embedding.h"
 #include "core/material.h"
 #include "core/tet_mesh.h"
+#include "core/triangle_mesh.h"
 
 namespace goo {
 
@@ -37,6 +39,15 @@ struct Body {
   Eigen::VectorXd rest_condition;       ///< #E condition number of Dm at creation
 
   NodeIncidence incidence;
+
+  // The embedded surface (empty for a body without one).
+  Triangles surface_triangles;  ///< #T×3 vertex ids, counter-clockwise seen from outside
+  Embedding embedding;          ///< each surface vertex's parent element and barycentric coordinates
+
+  /// The surface at the current positions: x_s = Σ b_i x_i.
+  [[nodiscard]] TriangleMesh surface() const {
+    return {embedding.surface_positions(tets, positions), surface_triangles};
+  }
 
   [[nodiscard]] Index num_nodes() const { return static_cast<Index>(positions.rows()); }
   [[nodiscard]] Index num_elements() const { return static_cast<Index>(tets.rows()); }

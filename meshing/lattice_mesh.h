@@ -1,10 +1,10 @@
 #pragma once
 // The tetrahedral mesh cut from the BCC lattice around a closed surface, and
 // the surface embedded in it (W&T secs. 4–5).
-#include <Eigen/SparseCore>
 #include <cstdint>
 #include <vector>
 
+#include "core/embedding.h"
 #include "core/tet_mesh.h"
 #include "core/triangle_mesh.h"
 #include "meshing/bcc_lattice.h"
@@ -39,16 +39,6 @@ struct LatticeMesh {
 /// tetrahedra cover the whole surface (thin sheets have no inside nodes).
 LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h);
 
-/// Each surface vertex's parent element and barycentric coordinates.
-struct Embedding {
-  std::vector<Index> parent;                                       ///< #V element ids
-  Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor> bary;  ///< #V×4, in the element's node order
-
-  /// W (#V × #N, 4 entries a row): surface positions x_s = W x, node forces Wᵀ f_s.
-  [[nodiscard]] Eigen::SparseMatrix<double, Eigen::RowMajor> operator_matrix(const TetMesh& mesh) const;
-  /// x_s = Σ b_i x_i over each vertex's parent (#V×3).
-  [[nodiscard]] Points surface_positions(const Tets& tets, const Points& node_positions) const;
-};
 
 /// Embeds surface vertices by constant-time lattice point location. A vertex
 /// whose located tetrahedron was not kept (it lies on a face shared with a

@@ -1,6 +1,8 @@
 #include "solvers/remesh.h"
 
 #include <Eigen/Cholesky>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <cmath>
 
 #include "core/elastic_forces.h"
@@ -63,16 +65,17 @@ Totals totals(const Eigen::VectorXd& m, const Points& x, const Points& v) {
 }  // namespace
 
 MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, double h) {
-  MeshedBody out{Body{}, build_lattice_mesh(surface, h), surface.triangles, Embedding{}};
+  MeshedBody out{Body{}, build_lattice_mesh(surface, h)};
   out.body = body_on_lattice(out.lattice_mesh, material);
   const ElementSolid solid = clip_solid_to_elements(out.lattice_mesh, surface);
   out.body.masses = exact_node_masses(out.lattice_mesh, solid, material.density, {}, material.min_mass_fraction);
-  out.embedding = embed(out.lattice_mesh, surface.vertices);
+  out.body.surface_triangles = surface.triangles;
+  out.body.embedding = embed(out.lattice_mesh, surface.vertices);
   return out;
 }
 
 MeshedBody remesh(const Body& old, const TriangleMesh& surface, double h, RemeshReport* report) {
-  MeshedBody out{Body{}, build_lattice_mesh(surface, h), surface.triangles, Embedding{}};
+  MeshedBody out{Body{}, build_lattice_mesh(surface, h)};
   const LatticeMesh& lm = out.lattice_mesh;
   Body& body = out.body;
   body = body_on_lattice(lm, old.material);
@@ -83,8 +86,11 @@ MeshedBody remesh(const Body& old, const TriangleMesh& surface, double h, Remesh
 
   // Elastic state: Fe = F Fp⁻¹ of the old elements, averaged as left stretches.
   std::vector<Eigen::Matrix3d> old_Fe(at(old.num_elements()));
-  for (Index e = 0; e < old.num_elements(); ++e)
-    old_Fe[at(e)] = deformation_gradient(old, old.positions, e) * old.Fp[at(e)].inverse();
+  tbb::parallel_for(tbb::blocked_range<Index>(0, old.num_elements(), kParallelGrain),
+                    [&](const tbb::blocked_range<Index>& r) {
+                      for (Index e = r.begin(); e != r.end(); ++e)
+                        old_Fe[at(e)] = deformation_gradient(old, old.positions, e) * old.Fp[at(e)].inverse();
+                    });
   const ElementOverlaps overlaps = element_overlaps(old.tets, old.positions, lm);
   const ElasticState state =
       transfer_elastic_state(overlaps, sources, old_Fe, old.alpha, lm, kPlasticMinSingularValue);
@@ -142,7 +148,8 @@ MeshedBody remesh(const Body& old, const TriangleMesh& surface, double h, Remesh
                "they are",
                a);
   }
-  out.embedding = embed(lm, surface.vertices);
+  body.surface_triangles = surface.triangles;
+  body.embedding = embed(lm, surface.vertices);
   return out;
 }
 

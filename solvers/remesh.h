@@ -8,17 +8,13 @@
 
 namespace goo {
 
-/// A body on a lattice mesh, with its surface embedded in it.
+/// A body on a lattice mesh, and the mesh it was cut from.
 struct MeshedBody {
-  Body body;
+  Body body;                 ///< with its surface embedded
   LatticeMesh lattice_mesh;  ///< the lattice mesh as built (rest configuration)
-  Triangles surface_triangles;
-  Embedding embedding;
 
-  /// The surface at the body's current positions: x_s = W x.
-  [[nodiscard]] TriangleMesh surface() const {
-    return {embedding.surface_positions(body.tets, body.positions), surface_triangles};
-  }
+  /// The surface at the body's current positions.
+  [[nodiscard]] TriangleMesh surface() const { return body.surface(); }
 };
 
 /// What a re-mesh did, and how far the transferred state missed the

@@ -1,0 +1,22 @@
+#pragma once
+// A fine surface embedded in a tetrahedral mesh (W&T sec. 4): each vertex
+// has a parent element and barycentric coordinates in it.
+#include <Eigen/SparseCore>
+#include <vector>
+
+#include "core/tet_mesh.h"
+
+namespace goo {
+
+struct Embedding {
+  std::vector<Index> parent;                                       ///< #V element ids
+  Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor> bary;  ///< #V×4, in the element's node order
+
+  [[nodiscard]] Index num_vertices() const { return static_cast<Index>(parent.size()); }
+  /// W (#V × #N, 4 entries a row): surface positions x_s = W x, node forces Wᵀ f_s.
+  [[nodiscard]] Eigen::SparseMatrix<double, Eigen::RowMajor> operator_matrix(const TetMesh& mesh) const;
+  /// x_s = Σ b_i x_i over each vertex's parent (#V×3).
+  [[nodiscard]] Points surface_positions(const Tets& tets, const Points& node_positions) const;
+};
+
+}  // namespace goo
