@@ -6,6 +6,7 @@
 #include <optional>
 #include <vector>
 
+#include "core/obstacles.h"
 #include "core/types.h"
 
 namespace goo {
@@ -30,6 +31,8 @@ struct Constraints {
   std::vector<Index> pinned;
   std::vector<PrescribedMotion> prescribed;
   std::optional<HalfSpace> ground;
+  /// Obstacles the embedded surface collides with (bodies with a surface).
+  std::vector<Obstacle> obstacles;
 };
 
 }  // namespace goo

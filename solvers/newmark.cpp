@@ -161,10 +161,14 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
   apply_gravity_and_forces(body, body.velocities, h, rhs);
   impose_velocities(body, t_next, dt, body.velocities);
   solve_damped(body, h, rhs, body.velocities, status);
+  const auto& obstacles = constraints_.obstacles;
+  // Collisions adjust v½ (W&T sec. 4; algorithms.md, "Time integration").
+  status.collisions += collisions_.resolve_velocities(body, body.velocities, obstacles, t_next, dt, constrained_).resolved;
 
-  // 2. xⁿ⁺¹ = xⁿ + Δt v½, then the ground.
+  // 2. xⁿ⁺¹ = xⁿ + Δt v½, then the ground and the position collisions.
   body.positions += dt * body.velocities;
   status.ground_contacts = enforce_ground(body);
+  status.collisions += collisions_.resolve_positions(body, obstacles, t_next, constrained_).resolved;
 
   // 3. The one elastic force evaluation, at xⁿ⁺¹, with plastic flow.
   elastic_.evaluate(body, body.positions, dt, forces_);
@@ -183,6 +187,8 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
   for (const Index n : constraints_.pinned) body.velocities.row(n).setZero();
   solve_damped(body, h, rhs, body.velocities, status);
   enforce_ground(body);
+  // vⁿ⁺¹ must not drive the surface into an obstacle over the next step.
+  status.collisions += collisions_.resolve_velocities(body, body.velocities, obstacles, t_next, dt, constrained_).resolved;
 
   time_ = t_next;
   status.dt = dt;

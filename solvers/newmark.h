@@ -3,6 +3,7 @@
 // 2003): elastic forces explicit, damping implicit, one elastic force
 // evaluation per step, variable time step (algorithms.md, "Time integration").
 #include "core/body.h"
+#include "core/collisions.h"
 #include "core/constraints.h"
 #include "core/damping.h"
 #include "core/elastic_forces.h"
@@ -25,6 +26,7 @@ struct StepStatus {
   double cg_residual = 0.0;  ///< the larger relative residual of the two
   Index plastic_elements = 0;
   Index ground_contacts = 0;
+  Index collisions = 0;  ///< element corrections of the embedded surface, positions and velocities
 };
 
 class NewmarkIntegrator {
@@ -59,6 +61,7 @@ class NewmarkIntegrator {
   Constraints constraints_;
   ElasticForces elastic_;
   Damping damping_;
+  SurfaceCollisions collisions_;
   Points forces_;  // f_e at the current positions
   bool have_forces_ = false;
   double time_ = 0.0;

@@ -1,0 +1,183 @@
+#include "core/collisions.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <bit>
+#include <limits>
+
+#include "core/error.h"
+#include "core/parallel.h"
+
+namespace goo {
+namespace {
+
+Eigen::Vector3d vertex_value(const Body& body, const Points& values, Index vertex) {
+  const Index e = body.embedding.parent[at(vertex)];
+  Eigen::Vector3d out = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 4; ++k) out += body.embedding.bary(vertex, k) * values.row(body.tets(e, k)).transpose();
+  return out;
+}
+
+/// W&T eq. 4: w_i = b_i / Σ b_j², so Σ b_i w_i = 1.
+Eigen::Vector4d distribution_weights(const Body& body, Index vertex) {
+  const Eigen::Vector4d b = body.embedding.bary.row(vertex).transpose();
+  return b / b.squaredNorm();
+}
+
+}  // namespace
+
+std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, const Points& x, const Points* v,
+                                                              double dt, const std::vector<Obstacle>& obstacles,
+                                                              double t) {
+  const Index ne = body.num_elements();
+  const Index nv = body.embedding.num_vertices();
+  // Element → its surface vertices (counting sort: vertices increasing).
+  offsets_.assign(at(ne) + 1, 0);
+  for (Index s = 0; s < nv; ++s) ++offsets_[at(body.embedding.parent[at(s)]) + 1];
+  for (std::size_t e = 0; e + 1 < offsets_.size(); ++e) offsets_[e + 1] += offsets_[e];
+  vertices_.resize(at(nv));
+  {
+    std::vector<Index> fill(offsets_.begin(), offsets_.end() - 1);
+    for (Index s = 0; s < nv; ++s) vertices_[at(fill[at(body.embedding.parent[at(s)])]++)] = s;
+  }
+  std::vector<Eigen::AlignedBox3d> bounds;
+  bounds.reserve(obstacles.size());
+  for (const Obstacle& o : obstacles) bounds.push_back(o.bounds(t));
+
+  std::vector<Hit> per_element(at(ne), Hit{-1, -1, -1, {}});
+  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index e = r.begin(); e != r.end(); ++e) {
+      if (offsets_[at(e)] == offsets_[at(e) + 1]) continue;
+      // The element's box, widened by its own size: surface vertices may
+      // drift out of their parent (to a barycentric coordinate of −0.2) and
+      // move by dt v.
+      Eigen::AlignedBox3d box;
+      for (int k = 0; k < 4; ++k) {
+        box.extend(x.row(body.tets(e, k)).transpose());
+        if (v) box.extend((x.row(body.tets(e, k)) + dt * v->row(body.tets(e, k))).transpose());
+      }
+      const Eigen::Vector3d grow = Eigen::Vector3d::Constant(box.diagonal().maxCoeff());
+      box.extend(box.min() - grow).extend(box.max() + grow);
+      Hit best{-1, -1, -1, {}};
+      best.contact.distance = 0.0;
+      for (std::size_t o = 0; o < obstacles.size(); ++o) {
+        if (!bounds[o].intersects(box)) continue;
+        for (Index c = offsets_[at(e)]; c < offsets_[at(e) + 1]; ++c) {
+          const Index s = vertices_[at(c)];
+          Eigen::Vector3d p = vertex_value(body, x, s);
+          if (v) p += dt * vertex_value(body, *v, s);
+          const SignedDistance sd = obstacles[o].query(p, t);
+          if (sd.distance < best.contact.distance) best = {e, s, static_cast<Index>(o), sd};
+        }
+      }
+      per_element[at(e)] = best;
+    }
+  });
+  std::vector<Hit> hits;
+  for (const Hit& h : per_element)
+    if (h.element >= 0) hits.push_back(h);
+  return hits;
+}
+
+std::vector<std::vector<std::size_t>> SurfaceCollisions::colour(const Body& body, const std::vector<Hit>& hits) {
+  masks_.assign(2 * at(body.num_nodes()), 0);
+  std::vector<std::vector<std::size_t>> classes;
+  for (std::size_t i = 0; i < hits.size(); ++i) {
+    std::uint64_t used[2] = {0, 0};
+    for (int k = 0; k < 4; ++k) {
+      const std::size_t n = at(body.tets(hits[i].element, k));
+      used[0] |= masks_[2 * n];
+      used[1] |= masks_[2 * n + 1];
+    }
+    // At most 4 × 23 other elements share a node of a BCC element: 128 colours suffice.
+    const int c = ~used[0] != 0 ? std::countr_one(used[0]) : 64 + std::countr_one(used[1]);
+    if (c >= 128) throw Error("collisions: more than 128 colours needed (an element with too many neighbours)");
+    for (int k = 0; k < 4; ++k) {
+      const std::size_t n = at(body.tets(hits[i].element, k));
+      masks_[2 * n + static_cast<std::size_t>(c / 64)] |= std::uint64_t{1} << (c % 64);
+    }
+    if (classes.size() <= static_cast<std::size_t>(c)) classes.resize(static_cast<std::size_t>(c) + 1);
+    classes[static_cast<std::size_t>(c)].push_back(i);
+  }
+  return classes;
+}
+
+CollisionStats SurfaceCollisions::resolve_velocities(const Body& body, Points& v,
+                                                     const std::vector<Obstacle>& obstacles, double t, double dt,
+                                                     const std::vector<std::uint8_t>& fixed) {
+  CollisionStats stats;
+  if (obstacles.empty() || body.embedding.num_vertices() == 0) return stats;
+  const std::vector<Hit> hits = detect(body, body.positions, &v, dt, obstacles, t);
+  if (hits.empty()) return stats;
+  stats.passes = 1;
+  for (const Hit& h : hits) stats.deepest = std::min(stats.deepest, h.contact.distance);
+  std::vector<std::uint8_t> applied(hits.size(), 0);
+  for (const auto& members : colour(body, hits)) {
+    tbb::parallel_for(std::size_t{0}, members.size(), [&](std::size_t m) {
+      const Hit& h = hits[members[m]];
+      const Obstacle& obstacle = obstacles[at(h.obstacle)];
+      const Eigen::Vector3d& n = h.contact.normal;
+      const Eigen::Vector3d p = vertex_value(body, body.positions, h.vertex) + dt * vertex_value(body, v, h.vertex);
+      const Eigen::Vector3d relative = vertex_value(body, v, h.vertex) - obstacle.velocity(p, t);
+      const double vn = relative.dot(n);
+      if (vn >= 0.0) return;  // separating already
+      // Inelastic normal response, Coulomb friction bounded by it.
+      Eigen::Vector3d dv = -vn * n;
+      const Eigen::Vector3d tangential = relative - vn * n;
+      const double speed = tangential.norm();
+      if (speed > 0.0) dv -= std::min(1.0, obstacle.friction * -vn / speed) * tangential;
+      const Eigen::Vector4d w = distribution_weights(body, h.vertex);
+      for (int k = 0; k < 4; ++k) {
+        const Index node = body.tets(h.element, k);
+        if (!fixed.empty() && fixed[at(node)]) continue;
+        v.row(node) += w[k] * dv.transpose();
+      }
+      applied[members[m]] = 1;
+    });
+  }
+  stats.resolved = static_cast<Index>(std::count(applied.begin(), applied.end(), 1));
+  return stats;
+}
+
+CollisionStats SurfaceCollisions::resolve_positions(Body& body, const std::vector<Obstacle>& obstacles, double t,
+                                                    const std::vector<std::uint8_t>& fixed, int max_passes) {
+  CollisionStats stats;
+  if (obstacles.empty() || body.embedding.num_vertices() == 0) return stats;
+  for (int pass = 0; pass < max_passes; ++pass) {
+    const std::vector<Hit> hits = detect(body, body.positions, nullptr, 0.0, obstacles, t);
+    if (hits.empty()) break;
+    ++stats.passes;
+    for (const Hit& h : hits) stats.deepest = std::min(stats.deepest, h.contact.distance);
+    for (const auto& members : colour(body, hits)) {
+      tbb::parallel_for(std::size_t{0}, members.size(), [&](std::size_t m) {
+        const Hit& hit = hits[members[m]];
+        // Re-measured: an earlier colour may have moved this element's nodes.
+        Index deepest_vertex = -1;
+        SignedDistance deepest;
+        deepest.distance = 0.0;
+        for (Index c = offsets_[at(hit.element)]; c < offsets_[at(hit.element) + 1]; ++c) {
+          const Index s = vertices_[at(c)];
+          const SignedDistance sd = obstacles[at(hit.obstacle)].query(vertex_value(body, body.positions, s), t);
+          if (sd.distance < deepest.distance) {
+            deepest = sd;
+            deepest_vertex = s;
+          }
+        }
+        if (deepest_vertex < 0) return;
+        const Eigen::Vector3d dx = -deepest.distance * deepest.normal;
+        const Eigen::Vector4d w = distribution_weights(body, deepest_vertex);
+        for (int k = 0; k < 4; ++k) {
+          const Index node = body.tets(hit.element, k);
+          if (!fixed.empty() && fixed[at(node)]) continue;
+          body.positions.row(node) += w[k] * dx.transpose();
+        }
+      });
+    }
+    stats.resolved += static_cast<Index>(hits.size());
+  }
+  return stats;
+}
+
+}  // namespace goo

@@ -1,0 +1,59 @@
+#pragma once
+// Collisions of the embedded surface with obstacles (W&T sec. 4;
+// algorithms.md, "Collisions"): per element, only its deepest penetrating
+// surface vertex is resolved, by moving the element's nodes with the
+// distribution weights w_i = b_i / Σ b_j² (W&T eq. 4), which move that vertex
+// by exactly the correction.
+#include <cstdint>
+#include <vector>
+
+#include "core/body.h"
+#include "core/obstacles.h"
+
+namespace goo {
+
+struct CollisionStats {
+  Index resolved = 0;     ///< element corrections applied, all passes
+  int passes = 0;         ///< passes that found something to resolve
+  double deepest = 0.0;   ///< most negative signed distance met (≤ 0)
+};
+
+/// Resolves collisions for one body, in parallel and deterministically:
+/// elements to correct are coloured greedily in element order so that no
+/// two of one colour share a node, and colours run one after another (each
+/// in parallel). The tet mesh is the bounding-volume hierarchy: an element
+/// whose box, widened for vertices drifting out of it, misses every
+/// obstacle is skipped.
+class SurfaceCollisions {
+ public:
+  /// Velocity stage, on v (the body's node velocities or v½): a vertex that
+  /// would be inside an obstacle at x + dt v and approaches it loses its
+  /// normal velocity relative to the obstacle, and its tangential velocity
+  /// drops by at most μ × that change (Coulomb); Δv goes to the nodes with w_i.
+  CollisionStats resolve_velocities(const Body& body, Points& v, const std::vector<Obstacle>& obstacles, double t,
+                                    double dt, const std::vector<std::uint8_t>& fixed);
+
+  /// Position stage: the deepest penetrating vertex of each element is moved
+  /// onto the obstacle's surface (Δx = −d n, nodes by w_i Δx). Repeats while
+  /// corrections of neighbours leave penetrations, at most `max_passes` times.
+  CollisionStats resolve_positions(Body& body, const std::vector<Obstacle>& obstacles, double t,
+                                   const std::vector<std::uint8_t>& fixed, int max_passes = 4);
+
+ private:
+  struct Hit {
+    Index element;
+    Index vertex;
+    Index obstacle;
+    SignedDistance contact;
+  };
+  /// The deepest hit of every element (of those that have one), in element order.
+  std::vector<Hit> detect(const Body& body, const Points& x, const Points* v, double dt,
+                          const std::vector<Obstacle>& obstacles, double t);
+  /// Element colour classes of the hits: hits of one class share no node.
+  std::vector<std::vector<std::size_t>> colour(const Body& body, const std::vector<Hit>& hits);
+
+  std::vector<Index> offsets_, vertices_;  // element → its surface vertices
+  std::vector<std::uint64_t> masks_;        // per node, colours used (two words)
+};
+
+}  // namespace goo
