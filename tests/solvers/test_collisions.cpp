@@ -163,5 +163,82 @@ TEST(Collisions, BlockWithFrictionAboveTanThetaStaysPut) {
   EXPECT_LT(std::abs(d.dot(down_slope)), shear * H / 2.0);
 }
 
+/// A soft block on the floor under a press that comes down to half its
+/// height in one second.
+struct Press {
+  Drop drop = block();
+  Constraints constraints;
+  Press() {
+    TriangleMesh cube = make_box({0.3, 0.3, 0.3}, 3);
+    cube.vertices.rowwise() += Eigen::RowVector3d(0.013, -0.007, 0.1505);
+    drop.body = mesh_body(cube, gel(50.0), drop.h);
+    RigidMotion::Key top, bottom;
+    top.translation = {0.0, 0.0, 0.3 + 0.1 + 0.02};
+    bottom.time = 1.0;
+    bottom.translation = {0.0, 0.0, 0.15 + 0.1};
+    constraints.obstacles = {floor_at(0.0, 0.3),
+                             Obstacle{"press", make_box_shape({0.5, 0.5, 0.1}), RigidMotion({top, bottom}), 0.3}};
+  }
+};
+
+/// The deepest penetration of the body's surface into an obstacle.
+double penetration(const Body& body, const Obstacle& obstacle, double t) {
+  const Points xs = body.surface().vertices;
+  double worst = 0.0;
+  for (Index v = 0; v < xs.rows(); ++v) worst = std::min(worst, obstacle.query(xs.row(v).transpose(), t).distance);
+  return worst;
+}
+
+TEST(Collisions, KinematicPressSqueezesABlockWithoutEnteringIt) {
+  Press press;
+  NewmarkIntegrator integrator(press.drop.settings, press.constraints);
+  Body& body = press.drop.body.body;
+  const double height = bounding_box(body.surface().vertices).sizes().z();
+  double worst_press = 0.0, worst_floor = 0.0;
+  while (integrator.time() < 1.0) {
+    integrator.step(body, 1.0 - integrator.time());
+    worst_press = std::min(worst_press, penetration(body, press.constraints.obstacles[1], integrator.time()));
+    worst_floor = std::min(worst_floor, penetration(body, press.constraints.obstacles[0], integrator.time()));
+  }
+  EXPECT_GE(worst_press, -1e-6 * press.drop.h);
+  EXPECT_GE(worst_floor, -1e-6 * press.drop.h);
+  // Squeezed to half its height, and bulging sideways.
+  const Eigen::AlignedBox3d box = bounding_box(body.surface().vertices);
+  EXPECT_LT(box.sizes().z(), 0.5 * height + 1e-3);
+  EXPECT_GT(box.sizes().x(), 0.3 * 1.1);
+}
+
+TEST(Collisions, SphereObstacleDeflectsAFallingBody) {
+  TriangleMesh cube = make_box({0.2, 0.2, 0.2}, 2);
+  cube.vertices.rowwise() += Eigen::RowVector3d(0.08, 0.003, 0.45);
+  MeshedBody mb = mesh_body(cube, gel(50.0), 0.07);
+  NewmarkSettings settings;
+  settings.max_time_step = 1e-3;
+  Constraints c;
+  c.obstacles = {Obstacle{"ball", make_sphere_shape(0.2), {}, 0.0}};
+  NewmarkIntegrator integrator(settings, c);
+  double worst = 0.0;
+  while (integrator.time() < 0.5) {
+    integrator.step(mb.body, 0.5 - integrator.time());
+    worst = std::min(worst, penetration(mb.body, c.obstacles[0], integrator.time()));
+  }
+  EXPECT_GE(worst, -1e-6 * 0.07);
+  // Pushed off to +x (the side its centre was on), slowed in its fall.
+  const Eigen::Vector3d momentum = linear_momentum(mb.body);
+  EXPECT_GT(momentum.x(), 0.05 * mb.body.masses.sum());
+  EXPECT_GT(momentum.z(), -9.81 * 0.5 * 0.9 * mb.body.masses.sum());
+}
+
+TEST(Collisions, SameBitsForAnyThreadCount) {
+  auto run = [](int threads) {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    Press press;
+    NewmarkIntegrator integrator(press.drop.settings, press.constraints);
+    integrator.advance_to(press.drop.body.body, 0.6);
+    return press.drop.body.body.positions;
+  };
+  EXPECT_TRUE(run(1) == run(2));
+}
+
 }  // namespace
 }  // namespace goo
