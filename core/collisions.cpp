@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <limits>
 
@@ -62,12 +63,41 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
       box.extend(box.min() - grow).extend(box.max() + grow);
       Hit best{-1, -1, -1, {}};
       best.contact.distance = 0.0;
+      bool near = false;
+      for (std::size_t o = 0; o < obstacles.size(); ++o) near = near || bounds[o].intersects(box);
+      if (!near) {
+        per_element[at(e)] = best;
+        continue;
+      }
+      // The element's vertices (predicted), and the ball around their mean
+      // that holds them: a signed distance is 1-Lipschitz, so an obstacle
+      // farther from the centre than the radius touches none of them.
+      std::array<Eigen::Vector3d, 64> local;
+      const Index count = std::min<Index>(offsets_[at(e) + 1] - offsets_[at(e)], 64);
+      Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+      for (Index c = 0; c < count; ++c) {
+        const Index s = vertices_[at(offsets_[at(e)] + c)];
+        Eigen::Vector3d p = vertex_value(body, x, s);
+        if (v) p += dt * vertex_value(body, *v, s);
+        local[at(c)] = p;
+        centre += p;
+      }
+      const bool all_local = count == offsets_[at(e) + 1] - offsets_[at(e)];
+      centre /= static_cast<double>(count);
+      double radius = 0.0;
+      for (Index c = 0; c < count; ++c) radius = std::max(radius, (local[at(c)] - centre).norm());
       for (std::size_t o = 0; o < obstacles.size(); ++o) {
         if (!bounds[o].intersects(box)) continue;
+        if (all_local && obstacles[o].query(centre, t).distance > radius) continue;
         for (Index c = offsets_[at(e)]; c < offsets_[at(e) + 1]; ++c) {
           const Index s = vertices_[at(c)];
-          Eigen::Vector3d p = vertex_value(body, x, s);
-          if (v) p += dt * vertex_value(body, *v, s);
+          Eigen::Vector3d p;
+          if (c - offsets_[at(e)] < count) {
+            p = local[at(c - offsets_[at(e)])];
+          } else {
+            p = vertex_value(body, x, s);
+            if (v) p += dt * vertex_value(body, *v, s);
+          }
           const SignedDistance sd = obstacles[o].query(p, t);
           if (sd.distance < best.contact.distance) best = {e, s, static_cast<Index>(o), sd};
         }
