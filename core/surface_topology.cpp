@@ -1,0 +1,52 @@
+#include "core/surface_topology.h"
+
+#include <algorithm>
+#include <unordered_map>
+
+#include "core/parallel.h"
+
+namespace goo {
+
+SurfaceTopology SurfaceTopology::build(const Triangles& triangles, Index num_vertices) {
+  SurfaceTopology out;
+  const auto nt = static_cast<Index>(triangles.rows());
+  out.corner_offsets.assign(at(num_vertices) + 1, 0);
+  for (Index t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k) ++out.corner_offsets[at(triangles(t, k)) + 1];
+  for (std::size_t v = 0; v + 1 < out.corner_offsets.size(); ++v) out.corner_offsets[v + 1] += out.corner_offsets[v];
+  out.corners.resize(at(3 * nt));
+  std::vector<Index> fill(out.corner_offsets.begin(), out.corner_offsets.end() - 1);
+  for (Index t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k) out.corners[at(fill[at(triangles(t, k))]++)] = 3 * t + k;
+
+  // Edges: the directed edge (a → b) of one triangle meets (b → a) of its neighbour.
+  out.across.setConstant(nt, 3, -1);
+  std::unordered_map<std::int64_t, Index> directed;
+  directed.reserve(at(3 * nt));
+  auto key = [&](Index a, Index b) { return static_cast<std::int64_t>(a) * num_vertices + b; };
+  for (Index t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k) directed.emplace(key(triangles(t, k), triangles(t, (k + 1) % 3)), 3 * t + k);
+  for (Index t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k) {
+      const auto it = directed.find(key(triangles(t, (k + 1) % 3), triangles(t, k)));
+      if (it != directed.end()) out.across(t, k) = it->second / 3;
+    }
+
+  out.neighbour_offsets.assign(at(num_vertices) + 1, 0);
+  std::vector<Index> around;
+  for (Index v = 0; v < num_vertices; ++v) {
+    around.clear();
+    for (Index c = out.corner_offsets[at(v)]; c < out.corner_offsets[at(v) + 1]; ++c) {
+      const Index t = out.corners[at(c)] / 3, k = out.corners[at(c)] % 3;
+      around.push_back(triangles(t, (k + 1) % 3));
+      around.push_back(triangles(t, (k + 2) % 3));
+    }
+    std::sort(around.begin(), around.end());
+    around.erase(std::unique(around.begin(), around.end()), around.end());
+    out.neighbours.insert(out.neighbours.end(), around.begin(), around.end());
+    out.neighbour_offsets[at(v) + 1] = static_cast<Index>(out.neighbours.size());
+  }
+  return out;
+}
+
+}  // namespace goo

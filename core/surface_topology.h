@@ -1,0 +1,24 @@
+#pragma once
+// Adjacency of a closed triangle surface, built once per topology and
+// reused by every per-vertex gather (surface tension, smoothing, upkeep).
+#include <vector>
+
+#include "core/types.h"
+
+namespace goo {
+
+struct SurfaceTopology {
+  /// Triangle corners (3 t + k) at each vertex, increasing: gathers sum in
+  /// this fixed order, so they are bitwise identical for any thread count.
+  std::vector<Index> corner_offsets, corners;
+  /// The triangle across edge k (from corner k to corner k + 1) of each
+  /// triangle; −1 on a boundary edge.
+  Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor> across;
+  /// Each vertex's neighbours (vertices sharing an edge), increasing.
+  std::vector<Index> neighbour_offsets, neighbours;
+
+  static SurfaceTopology build(const Triangles& triangles, Index num_vertices);
+  [[nodiscard]] Index num_vertices() const { return static_cast<Index>(corner_offsets.size()) - 1; }
+};
+
+}  // namespace goo
