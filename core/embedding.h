@@ -19,4 +19,14 @@ struct Embedding {
   [[nodiscard]] Points surface_positions(const Tets& tets, const Points& node_positions) const;
 };
 
+/// Moves each surface vertex to `targets` (#V×3) and finds its new parent
+/// and barycentric coordinates in the mesh at positions x by walking from
+/// its old parent across the face opposite its most negative coordinate
+/// (at most `max_steps` steps; `neighbours` from face_neighbours). A vertex
+/// that leaves the mesh keeps the element it is least outside of, with
+/// negative coordinates (the −0.2 re-mesh trigger watches them). Inverted
+/// or flat elements stop the walk.
+void reembed(Embedding& embedding, const Tets& tets, const Tets& neighbours, const Points& x, const Points& targets,
+             int max_steps = 32);
+
 }  // namespace goo

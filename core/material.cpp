@@ -42,6 +42,8 @@ void validate(const Material& m, std::string_view where) {
   if (!(m.yield_stress >= 0.0)) fail("yield_stress", "non-negative (infinite: no plasticity)", m.yield_stress);
   if (!(m.flow_rate >= 0.0) || !std::isfinite(m.flow_rate)) fail("flow_rate", "non-negative and finite", m.flow_rate);
   if (!(m.hardening >= 0.0) || !std::isfinite(m.hardening)) fail("hardening", "non-negative and finite", m.hardening);
+  if (!(m.surface_tension >= 0.0) || !std::isfinite(m.surface_tension))
+    fail("surface_tension", "non-negative and finite", m.surface_tension);
   if (!(m.min_mass_fraction >= 0.0 && m.min_mass_fraction <= 1.0)) {
     fail("min_mass_fraction", "in [0, 1]", m.min_mass_fraction);
   }

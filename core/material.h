@@ -26,6 +26,7 @@ struct Material {
   double flow_rate = 0.0;                                         ///< ν, 1/s (per unit time: rate-independent)
   double hardening = 0.0;                                         ///< K, dimensionless
   double min_mass_fraction = 0.0;  ///< m_min as a fraction of a full node's mass (W&T sec. 6)
+  double surface_tension = 0.0;    ///< σ, N/m, on the embedded surface (W&T sec. 7)
   ElasticModel model = ElasticModel::fixed_corotated;
 
   /// Lamé parameters: μ = E / (2(1+ν)), λ = E ν / ((1+ν)(1−2ν)).

@@ -1,5 +1,9 @@
 #include "core/tet_mesh.h"
 
+#include <algorithm>
+#include <array>
+#include <vector>
+
 #include <fmt/format.h>
 
 #include <array>
@@ -92,6 +96,30 @@ Index check_and_orient(TetMesh& mesh, std::string_view source) {
     }
   }
   return reoriented;
+}
+
+Tets face_neighbours(const Tets& tets) {
+  const auto ne = static_cast<Index>(tets.rows());
+  Tets out = Tets::Constant(ne, 4, -1);
+  // Faces as sorted node triples; a face met twice joins its two elements.
+  std::vector<std::pair<std::array<Index, 3>, Index>> faces;
+  faces.reserve(static_cast<std::size_t>(4 * ne));
+  for (Index e = 0; e < ne; ++e)
+    for (int k = 0; k < 4; ++k) {
+      std::array<Index, 3> f{};
+      for (int j = 0, i = 0; j < 4; ++j)
+        if (j != k) f[static_cast<std::size_t>(i++)] = tets(e, j);
+      std::sort(f.begin(), f.end());
+      faces.emplace_back(f, 4 * e + k);
+    }
+  std::sort(faces.begin(), faces.end());
+  for (std::size_t i = 0; i + 1 < faces.size(); ++i)
+    if (faces[i].first == faces[i + 1].first) {
+      const Index a = faces[i].second, b = faces[i + 1].second;
+      out(a / 4, a % 4) = b / 4;
+      out(b / 4, b % 4) = a / 4;
+    }
+  return out;
 }
 
 }  // namespace goo

@@ -26,6 +26,10 @@ TetMesh make_box_tets(const Eigen::Vector3d& size, const Eigen::Vector3i& cells,
 /// swapped); returns how many were.
 Index check_and_orient(TetMesh& mesh, std::string_view source);
 
+/// The element across the face opposite node k of each element (#E×4, −1
+/// on the boundary).
+Tets face_neighbours(const Tets& tets);
+
 /// det[x1−x0, x2−x0, x3−x0] / 6 of element e.
 double signed_volume(const Points& positions, const Tets& tets, Index e);
 

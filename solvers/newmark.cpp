@@ -37,7 +37,7 @@ NewmarkIntegrator::NewmarkIntegrator(NewmarkSettings settings, Constraints const
 
 void NewmarkIntegrator::ensure_forces(Body& body) {
   if (have_forces_ && forces_.rows() == body.num_nodes()) return;
-  elastic_.evaluate(body, body.positions, 0.0, forces_);
+  evaluate_forces(body, 0.0);
   constrained_.assign(at(body.num_nodes()), 0);
   for (const Index n : constraints_.pinned) constrained_.at(at(n)) = 1;
   for (const auto& motion : constraints_.prescribed)
@@ -45,9 +45,42 @@ void NewmarkIntegrator::ensure_forces(Body& body) {
   have_forces_ = true;
 }
 
+static bool has_tension(const Body& body) {
+  return body.material.surface_tension > 0.0 && body.embedding.num_vertices() > 0;
+}
+
+void NewmarkIntegrator::ensure_topology(const Body& body) {
+  if (!(topology_of_.rows() == body.surface_triangles.rows() && topology_of_ == body.surface_triangles)) {
+    topology_ = SurfaceTopology::build(body.surface_triangles, body.embedding.num_vertices());
+    topology_of_ = body.surface_triangles;
+  }
+  if (!(neighbours_of_.rows() == body.tets.rows() && neighbours_of_ == body.tets)) {
+    neighbours_ = face_neighbours(body.tets);
+    neighbours_of_ = body.tets;
+  }
+}
+
+void NewmarkIntegrator::evaluate_forces(Body& body, double plastic_dt) {
+  elastic_.evaluate(body, body.positions, plastic_dt, forces_);
+  if (!has_tension(body)) return;
+  // W&T sec. 7: forces on the fine surface, to the nodes with b_i (a
+  // quantity: algorithms.md, "Embedding"). In vertex order: deterministic.
+  ensure_topology(body);
+  Points f;
+  surface_tension_forces(body.surface(), topology_, body.material.surface_tension, settings_.surface_tension_form, f);
+  const Embedding& em = body.embedding;
+  for (Index v = 0; v < em.num_vertices(); ++v)
+    for (int k = 0; k < 4; ++k) forces_.row(body.tets(em.parent[at(v)], k)) += em.bary(v, k) * f.row(v);
+}
+
 double NewmarkIntegrator::stable_time_step(Body& body) {
   ensure_forces(body);
   double dt = std::min(settings_.max_time_step, settings_.cfl * elastic_.critical_time_step());
+  if (has_tension(body)) {
+    // Capillary bound at the element scale (h from the mean rest volume, h³/12 per BCC element).
+    const double h = std::cbrt(12.0 * body.rest_volumes.mean());
+    dt = std::min(dt, surface_tension_time_step(body.material.density, h, body.material.surface_tension));
+  }
   const double rate = max_strain_rate(body, body.velocities);
   if (rate > 0.0) dt = std::min(dt, settings_.max_strain_per_step / rate);
   return dt;
@@ -165,13 +198,20 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
   // Collisions adjust v½ (W&T sec. 4; algorithms.md, "Time integration").
   status.collisions += collisions_.resolve_velocities(body, body.velocities, obstacles, t_next, dt, constrained_).resolved;
 
-  // 2. xⁿ⁺¹ = xⁿ + Δt v½, then the ground and the position collisions.
+  // 2. xⁿ⁺¹ = xⁿ + Δt v½; the surface smoothed and re-embedded (W&T
+  // sec. 7, fig. 8); then the ground and the position collisions.
   body.positions += dt * body.velocities;
+  if (has_tension(body) && settings_.smoothing > 0.0) {
+    ensure_topology(body);
+    Points xs = body.embedding.surface_positions(body.tets, body.positions);
+    smooth_surface(xs, topology_, std::min(0.5, settings_.smoothing * body.material.surface_tension * dt));
+    reembed(body.embedding, body.tets, neighbours_, body.positions, xs);
+  }
   status.ground_contacts = enforce_ground(body);
   status.collisions += collisions_.resolve_positions(body, obstacles, t_next, constrained_).resolved;
 
   // 3. The one elastic force evaluation, at xⁿ⁺¹, with plastic flow.
-  elastic_.evaluate(body, body.positions, dt, forces_);
+  evaluate_forces(body, dt);
   status.plastic_elements = elastic_.plastic_elements();
 
   // 4. vⁿ⁺¹ = v½ + Δt/2 M⁻¹ (f_e(xⁿ⁺¹) + f_d(xⁿ⁺¹, vⁿ⁺¹) + M g).

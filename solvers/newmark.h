@@ -7,6 +7,7 @@
 #include "core/constraints.h"
 #include "core/damping.h"
 #include "core/elastic_forces.h"
+#include "core/surface_tension.h"
 
 namespace goo {
 
@@ -17,6 +18,12 @@ struct NewmarkSettings {
   double max_time_step = 1e-2;                                 ///< s
   double cg_tolerance = 1e-12;                                 ///< relative residual of the damping solves
   int cg_max_iterations = 1000;
+  /// Surface tension (when the material's σ > 0 and the body has a surface).
+  SurfaceTensionForm surface_tension_form = SurfaceTensionForm::area_gradient;
+  /// Umbrella smoothing of the surface per step: λ = smoothing × σ × Δt
+  /// (capped at ½), so the smoothing per unit time does not depend on Δt.
+  /// Units 1/(N/m · s); 0 turns it off.
+  double smoothing = 0.0;
 };
 
 /// What one step did.
@@ -51,6 +58,12 @@ class NewmarkIntegrator {
 
  private:
   void ensure_forces(Body& body);
+  /// Elastic forces at x (with plastic flow over plastic_dt), plus surface
+  /// tension mapped to the nodes with the barycentric weights.
+  void evaluate_forces(Body& body, double plastic_dt);
+  /// Topology of the body's surface and its mesh's face adjacency, rebuilt
+  /// when they change.
+  void ensure_topology(const Body& body);
   void apply_gravity_and_forces(const Body& body, const Points& v, double half_dt, Points& rhs) const;
   /// Solves (M + h C) v = rhs for the free nodes, v fixed at constrained ones.
   void solve_damped(const Body& body, double h, const Points& rhs, Points& v, StepStatus& status);
@@ -62,6 +75,10 @@ class NewmarkIntegrator {
   ElasticForces elastic_;
   Damping damping_;
   SurfaceCollisions collisions_;
+  Triangles topology_of_;  // the triangles the topology was built for
+  SurfaceTopology topology_;
+  Tets neighbours_of_;  // the tets the adjacency was built for
+  Tets neighbours_;
   Points forces_;  // f_e at the current positions
   bool have_forces_ = false;
   double time_ = 0.0;
