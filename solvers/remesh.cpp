@@ -74,7 +74,15 @@ MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, doub
   return out;
 }
 
-MeshedBody remesh(const Body& old, const TriangleMesh& surface, double h, RemeshReport* report) {
+MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, RemeshReport* report,
+                  const UpkeepSettings* upkeep) {
+  TriangleMesh upkept;
+  if (upkeep) {
+    upkept = current;
+    const UpkeepReport done = upkeep_surface(upkept, h, *upkeep);
+    if (report) report->upkeep = done;
+  }
+  const TriangleMesh& surface = upkeep ? upkept : current;
   MeshedBody out{Body{}, build_lattice_mesh(surface, h)};
   const LatticeMesh& lm = out.lattice_mesh;
   Body& body = out.body;

@@ -5,6 +5,7 @@
 #include "core/body.h"
 #include "core/triangle_mesh.h"
 #include "meshing/lattice_mesh.h"
+#include "meshing/surface_upkeep.h"
 
 namespace goo {
 
@@ -28,6 +29,7 @@ struct RemeshReport {
   double mass_error = 0.0;       ///< |M_new − M_old| / M_old
   double centre_error = 0.0;     ///< |c_new − c_old| / (size of the surface's bounding box)
   double momentum_error = 0.0;   ///< |P_new − P_old| / (M_old max |v_old|), 0 at rest
+  UpkeepReport upkeep;           ///< the surface upkeep before meshing, if asked for
 };
 
 /// The first mesh of a body: every lattice tetrahedron of spacing h around
@@ -48,6 +50,10 @@ MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, doub
 ///   the old body's (both corrections vanish to round-off when the old state
 ///   is uniform; their size before correction is in the report).
 /// The surface does not move: it is re-embedded at the same positions.
-MeshedBody remesh(const Body& body, const TriangleMesh& surface, double h, RemeshReport* report = nullptr);
+/// With `upkeep`, long edges are split and short ones collapsed first
+/// (W&T fig. 8); splits move nothing, collapses change the volume by at most
+/// report->upkeep.volume_change_bound.
+MeshedBody remesh(const Body& body, const TriangleMesh& surface, double h, RemeshReport* report = nullptr,
+                  const UpkeepSettings* upkeep = nullptr);
 
 }  // namespace goo

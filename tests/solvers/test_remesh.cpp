@@ -177,6 +177,25 @@ TEST(Remesh, StressFreeBodyRemeshedEveryStepFallsLikeOneNeverRemeshed) {
     ASSERT_LT((remeshed.body.velocities.row(n) - (v0 + t * settings.gravity.transpose())).norm(), 1e-10);
 }
 
+// Surface upkeep at re-mesh time (W&T fig. 8): a body stretched to twice
+// its length has long surface edges; they are split before meshing, which
+// leaves the surface where it was, and the state is carried as usual.
+TEST(Remesh, SplitsLongSurfaceEdgesFirst) {
+  const Eigen::Matrix3d A = Eigen::Vector3d(2.0, 1.0, 1.0).asDiagonal();
+  const MeshedBody old = moved_sphere(0.1, A, Eigen::Matrix3d::Zero());
+  const TriangleMesh surface = old.surface();
+  RemeshReport report;
+  UpkeepSettings upkeep;
+  upkeep.split_length = 0.8;
+  upkeep.collapse_length = 0.01;
+  const MeshedBody mb = remesh(old.body, surface, 0.1, &report, &upkeep);
+  EXPECT_GT(report.upkeep.splits, 0);
+  EXPECT_GT(mb.body.surface_triangles.rows(), surface.triangles.rows());
+  const SurfaceIntegrals a = surface_integrals(surface), b = surface_integrals(mb.surface());
+  EXPECT_NEAR(b.volume, a.volume, 1e-12 * a.volume + report.upkeep.volume_change_bound);
+  EXPECT_NEAR(mb.body.masses.sum(), old.body.masses.sum(), 1e-13 * old.body.masses.sum());
+}
+
 TEST(Remesh, SameBitsForAnyThreadCount) {
   const Eigen::Matrix3d B = (Eigen::Matrix3d() << 0.0, -0.4, 0.2, 0.4, 0.0, -0.3, -0.2, 0.3, 0.0).finished();
   MeshedBody old = moved_sphere(0.1, stretch_and_rotation(), B);

@@ -1,0 +1,229 @@
+#include "meshing/surface_upkeep.h"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+#include <vector>
+
+#include "core/error.h"
+#include "core/parallel.h"
+#include "core/polygon_soup.h"
+
+namespace goo {
+namespace {
+
+using Edge = std::pair<Index, Index>;  // (min, max)
+
+Edge edge(Index a, Index b) { return a < b ? Edge{a, b} : Edge{b, a}; }
+
+struct EdgeHash {
+  std::size_t operator()(const Edge& e) const {
+    return std::hash<std::int64_t>()((static_cast<std::int64_t>(e.first) << 32) ^ e.second);
+  }
+};
+
+Eigen::Vector3d point(const TriangleMesh& s, Index v) { return s.vertices.row(v).transpose(); }
+
+double length(const TriangleMesh& s, const Edge& e) { return (point(s, e.first) - point(s, e.second)).norm(); }
+
+/// Unique edges, sorted by length (descending if `longest_first`), ties by ids.
+std::vector<Edge> sorted_edges(const TriangleMesh& s, bool longest_first) {
+  std::vector<Edge> edges;
+  edges.reserve(static_cast<std::size_t>(3 * s.num_triangles()));
+  for (Index t = 0; t < s.num_triangles(); ++t)
+    for (int k = 0; k < 3; ++k) edges.push_back(edge(s.triangles(t, k), s.triangles(t, (k + 1) % 3)));
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  std::vector<double> lengths(edges.size());
+  for (std::size_t i = 0; i < edges.size(); ++i) lengths[i] = length(s, edges[i]);
+  std::vector<std::size_t> order(edges.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+    return longest_first ? lengths[x] > lengths[y] : lengths[x] < lengths[y];
+  });
+  std::vector<Edge> out(edges.size());
+  for (std::size_t i = 0; i < order.size(); ++i) out[i] = edges[order[i]];
+  return out;
+}
+
+/// Triangles at each directed edge: triangle t has a → b at corner k.
+std::unordered_map<Edge, std::vector<Index>, EdgeHash> edge_triangles(const TriangleMesh& s) {
+  std::unordered_map<Edge, std::vector<Index>, EdgeHash> out;
+  out.reserve(static_cast<std::size_t>(3 * s.num_triangles()));
+  for (Index t = 0; t < s.num_triangles(); ++t)
+    for (int k = 0; k < 3; ++k) out[edge(s.triangles(t, k), s.triangles(t, (k + 1) % 3))].push_back(t);
+  return out;
+}
+
+Index split_pass(TriangleMesh& s, double limit) {
+  const auto triangles_of = edge_triangles(s);
+  std::vector<std::uint8_t> touched(at(s.num_triangles()), 0);
+  std::vector<Eigen::Vector3i> added;
+  std::vector<Eigen::RowVector3d> new_vertices;
+  Index splits = 0;
+  for (const Edge& e : sorted_edges(s, true)) {
+    if (length(s, e) <= limit) break;
+    const auto& around = triangles_of.at(e);
+    if (around.size() != 2 || touched[at(around[0])] || touched[at(around[1])]) continue;
+    const auto m = static_cast<Index>(s.num_vertices() + static_cast<Index>(new_vertices.size()));
+    new_vertices.push_back(0.5 * (s.vertices.row(e.first) + s.vertices.row(e.second)));
+    for (const Index t : around) {
+      touched[at(t)] = 1;
+      // Rotate t so that the split edge is (corner 0 → corner 1).
+      int k = 0;
+      while (edge(s.triangles(t, k), s.triangles(t, (k + 1) % 3)) != e) ++k;
+      const Index a = s.triangles(t, k), b = s.triangles(t, (k + 1) % 3), c = s.triangles(t, (k + 2) % 3);
+      s.triangles.row(t) << a, m, c;
+      added.emplace_back(m, b, c);
+    }
+    ++splits;
+  }
+  if (splits == 0) return 0;
+  const Index nv = s.num_vertices(), nt = s.num_triangles();
+  s.vertices.conservativeResize(nv + static_cast<Index>(new_vertices.size()), 3);
+  for (std::size_t i = 0; i < new_vertices.size(); ++i) s.vertices.row(nv + static_cast<Index>(i)) = new_vertices[i];
+  s.triangles.conservativeResize(nt + static_cast<Index>(added.size()), 3);
+  for (std::size_t i = 0; i < added.size(); ++i) s.triangles.row(nt + static_cast<Index>(i)) = added[i].transpose();
+  return splits;
+}
+
+/// Signed volume of the cone from the origin over triangle (a, b, c), ×6.
+double cone6(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  return a.dot(b.cross(c));
+}
+
+struct CollapsePass {
+  Index collapses = 0;
+  Index refused = 0;
+  double volume_change = 0.0;
+};
+
+CollapsePass collapse_pass(TriangleMesh& s, double limit) {
+  CollapsePass out;
+  const Index nv = s.num_vertices(), nt = s.num_triangles();
+  std::vector<std::vector<Index>> star(at(nv));
+  for (Index t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k) star[at(s.triangles(t, k))].push_back(t);
+  std::vector<std::uint8_t> dead(at(nt), 0), dirty(at(nv), 0);
+  auto neighbours = [&](Index v) {
+    std::vector<Index> out_v;
+    for (const Index t : star[at(v)])
+      if (!dead[at(t)])
+        for (int k = 0; k < 3; ++k)
+          if (s.triangles(t, k) != v) out_v.push_back(s.triangles(t, k));
+    std::sort(out_v.begin(), out_v.end());
+    out_v.erase(std::unique(out_v.begin(), out_v.end()), out_v.end());
+    return out_v;
+  };
+  for (const Edge& e : sorted_edges(s, false)) {
+    if (length(s, e) >= limit) break;
+    const auto [a, b] = e;
+    if (dirty[at(a)] || dirty[at(b)]) continue;
+    // Link condition: a and b share exactly the two opposite vertices.
+    const auto na = neighbours(a), nb = neighbours(b);
+    std::vector<Index> common;
+    std::set_intersection(na.begin(), na.end(), nb.begin(), nb.end(), std::back_inserter(common));
+    std::vector<Index> sides, keep;
+    for (const Index t : star[at(a)])
+      if (!dead[at(t)] && (s.triangles.row(t).array() == b).any()) sides.push_back(t);
+    for (const Index v : {a, b})
+      for (const Index t : star[at(v)])
+        if (!dead[at(t)] && !(s.triangles.row(t).array() == a).any() != !(s.triangles.row(t).array() == b).any())
+          keep.push_back(t);
+    if (common.size() != 2 || sides.size() != 2 || na.size() <= 3 || nb.size() <= 3) {
+      ++out.refused;
+      continue;
+    }
+    // Volume-preserving position p = m + τ (b − a): the enclosed volume
+    // after the collapse is affine in p; solve for no change.
+    const Eigen::Vector3d pa = point(s, a), pb = point(s, b), mid = 0.5 * (pa + pb);
+    auto volume_with = [&](const Eigen::Vector3d& p) {
+      double v = 0.0;
+      for (const Index t : keep) {
+        std::array<Eigen::Vector3d, 3> x;
+        for (int k = 0; k < 3; ++k) {
+          const Index w = s.triangles(t, k);
+          x[static_cast<std::size_t>(k)] = (w == a || w == b) ? p : point(s, w);
+        }
+        v += cone6(x[0] - mid, x[1] - mid, x[2] - mid);
+      }
+      return v / 6.0;
+    };
+    double before = 0.0;
+    for (const Index t : star[at(a)])
+      if (!dead[at(t)]) before += cone6(point(s, s.triangles(t, 0)) - mid, point(s, s.triangles(t, 1)) - mid,
+                                         point(s, s.triangles(t, 2)) - mid) / 6.0;
+    for (const Index t : star[at(b)])
+      if (!dead[at(t)] && !(s.triangles.row(t).array() == a).any())
+        before += cone6(point(s, s.triangles(t, 0)) - mid, point(s, s.triangles(t, 1)) - mid,
+                        point(s, s.triangles(t, 2)) - mid) / 6.0;
+    const double v0 = volume_with(mid), v1 = volume_with(mid + (pb - pa));
+    const double slope = v1 - v0;
+    double tau = slope != 0.0 ? (before - v0) / slope : 0.0;
+    tau = std::clamp(tau, -0.5, 0.5);
+    const Eigen::Vector3d p = mid + tau * (pb - pa);
+    // No surviving triangle may flip or degenerate.
+    bool ok = true;
+    for (const Index t : keep) {
+      std::array<Eigen::Vector3d, 3> x, y;
+      for (int k = 0; k < 3; ++k) {
+        const Index w = s.triangles(t, k);
+        x[static_cast<std::size_t>(k)] = point(s, w);
+        y[static_cast<std::size_t>(k)] = (w == a || w == b) ? p : point(s, w);
+      }
+      const Eigen::Vector3d n0 = (x[1] - x[0]).cross(x[2] - x[0]), n1 = (y[1] - y[0]).cross(y[2] - y[0]);
+      if (!(n0.dot(n1) > 0.0) || n1.norm() < 1e-12 * n0.norm()) ok = false;
+    }
+    if (!ok) {
+      ++out.refused;
+      continue;
+    }
+    out.volume_change += std::abs(volume_with(p) - before);
+    s.vertices.row(a) = p.transpose();
+    for (const Index t : sides) dead[at(t)] = 1;
+    for (const Index t : star[at(b)])
+      if (!dead[at(t)]) {
+        for (int k = 0; k < 3; ++k)
+          if (s.triangles(t, k) == b) s.triangles(t, k) = a;
+        star[at(a)].push_back(t);
+      }
+    // The neighbourhood changed: its edges wait for the next pass.
+    dirty[at(a)] = dirty[at(b)] = 1;
+    for (const Index v : na) dirty[at(v)] = 1;
+    for (const Index v : nb) dirty[at(v)] = 1;
+    ++out.collapses;
+  }
+  if (out.collapses > 0) {
+    Triangles kept(nt, 3);
+    Index n = 0;
+    for (Index t = 0; t < nt; ++t)
+      if (!dead[at(t)]) kept.row(n++) = s.triangles.row(t);
+    kept.conservativeResize(n, 3);
+    s.triangles = std::move(kept);
+    remove_unreferenced_vertices(s);
+  }
+  return out;
+}
+
+}  // namespace
+
+UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSettings& settings) {
+  if (!(settings.collapse_length >= 0.0) || !(settings.split_length > 2.0 * settings.collapse_length))
+    throw Error("surface upkeep: split_length must exceed twice collapse_length (or edges would flip-flop)");
+  UpkeepReport report;
+  for (int pass = 0; pass < settings.max_passes; ++pass) {
+    const Index n = split_pass(surface, settings.split_length * h);
+    report.splits += n;
+    if (n == 0) break;
+  }
+  for (int pass = 0; pass < settings.max_passes; ++pass) {
+    const CollapsePass c = collapse_pass(surface, settings.collapse_length * h);
+    report.collapses += c.collapses;
+    report.refused += c.refused;
+    report.volume_change_bound += c.volume_change;
+    if (c.collapses == 0) break;
+  }
+  return report;
+}
+
+}  // namespace goo

@@ -1,0 +1,84 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "core/primitives.h"
+#include "core/surface_check.h"
+#include "core/surface_geometry.h"
+#include "meshing/surface_upkeep.h"
+
+namespace goo {
+namespace {
+
+double longest_edge(const TriangleMesh& s) {
+  double out = 0.0;
+  for (Index t = 0; t < s.num_triangles(); ++t)
+    for (int k = 0; k < 3; ++k)
+      out = std::max(out, (s.vertices.row(s.triangles(t, k)) - s.vertices.row(s.triangles(t, (k + 1) % 3))).norm());
+  return out;
+}
+
+void expect_closed_manifold(const TriangleMesh& s) {
+  const SurfaceReport r = analyze_surface(s);
+  EXPECT_TRUE(r.closed());
+  EXPECT_TRUE(r.manifold());
+  EXPECT_TRUE(r.consistently_oriented());
+  EXPECT_EQ(r.euler_characteristic(), 2);
+}
+
+// A split bisects two triangles in their own planes: the surface as a point
+// set does not change, so area, volume and centroid do not either, and
+// every old vertex keeps its place.
+TEST(SurfaceUpkeep, SplitsLeaveEverySurfacePointWhereItWas) {
+  const TriangleMesh before = make_sphere(1.0, 8);
+  TriangleMesh after = before;
+  const double h = 0.4;
+  UpkeepSettings settings;
+  settings.collapse_length = 0.0;
+  const UpkeepReport report = upkeep_surface(after, h, settings);
+  EXPECT_GT(report.splits, 50);
+  EXPECT_EQ(report.collapses, 0);
+  expect_closed_manifold(after);
+  EXPECT_LE(longest_edge(after), settings.split_length * h);
+  ASSERT_GE(after.num_vertices(), before.num_vertices());
+  EXPECT_TRUE(after.vertices.topRows(before.num_vertices()) == before.vertices);
+  const SurfaceIntegrals a = surface_integrals(before), b = surface_integrals(after);
+  EXPECT_NEAR(b.area, a.area, 1e-14 * a.area);
+  EXPECT_NEAR(b.volume, a.volume, 1e-14 * a.volume);
+  EXPECT_LT((b.centroid - a.centroid).norm(), 1e-14);
+}
+
+// A fine UV sphere has tiny edges at its poles: collapses remove them, keep
+// the surface closed and manifold, and change its volume by no more than the
+// bound they report (zero for every collapse whose volume-preserving
+// position lay on its edge).
+TEST(SurfaceUpkeep, CollapsesKeepTheSurfaceClosedManifoldAndItsVolume) {
+  TriangleMesh surface = make_sphere(1.0, 64);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-0.002, 0.002);
+  for (Index v = 0; v < surface.num_vertices(); ++v)
+    for (int k = 0; k < 3; ++k) surface.vertices(v, k) += u(rng);
+  const double V0 = surface_integrals(surface).volume;
+  const Index n0 = surface.num_triangles();
+  UpkeepSettings settings;
+  settings.split_length = 10.0;  // no splits
+  settings.collapse_length = 0.2;
+  const UpkeepReport report = upkeep_surface(surface, 0.25, settings);
+  EXPECT_GT(report.collapses, 100);
+  EXPECT_LT(surface.num_triangles(), n0);
+  expect_closed_manifold(surface);
+  const double V1 = surface_integrals(surface).volume;
+  EXPECT_LE(std::abs(V1 - V0), report.volume_change_bound + 1e-13 * V0);
+  EXPECT_LT(report.volume_change_bound, 1e-3 * V0);
+}
+
+TEST(SurfaceUpkeep, RefusesThresholdsThatWouldFlipFlop) {
+  TriangleMesh s = make_sphere(1.0, 8);
+  UpkeepSettings settings;
+  settings.split_length = 0.1;
+  settings.collapse_length = 0.08;
+  EXPECT_ANY_THROW(upkeep_surface(s, 1.0, settings));
+}
+
+}  // namespace
+}  // namespace goo
