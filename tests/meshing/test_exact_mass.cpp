@@ -9,48 +9,20 @@
 #include "io/surface_mesh_io.h"
 #include "meshing/convex_clip.h"
 #include "meshing/exact_mass.h"
+#include "tests/meshing/lattice_cases.h"
 #include "tests/common/test_common.h"
 
 namespace goo {
 namespace {
 
-struct Case {
-  std::string name;
-  TriangleMesh surface;
-  double h;
-};
-
-std::vector<Case> cases() {
-  std::vector<Case> out;
-  out.push_back({"sphere", make_sphere(1.0, 24), 0.2});
-  TriangleMesh cube = make_box(Eigen::Vector3d::Ones(), 4);
-  cube.vertices.rowwise() += Eigen::RowVector3d::Constant(0.5);  // faces on planes of lattice corners
-  out.push_back({"aligned_cube", cube, 0.25});
-  TriangleMesh centred = make_box(Eigen::Vector3d::Ones(), 3);
-  centred.vertices.rowwise() += Eigen::RowVector3d(0.625, 0.625, 0.625);  // faces on planes of cell centres
-  out.push_back({"centre_aligned_cube", centred, 0.25});
-  // A sheet a hundredth of the spacing thick, tilted: no lattice node inside.
-  TriangleMesh sheet = make_box({1.0, 0.8, 0.002}, 3);
-  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1.0, 2.0, 0.5).normalized()).toRotationMatrix();
-  sheet.vertices = (sheet.vertices * R.transpose()).rowwise() + Eigen::RowVector3d(0.013, -0.021, 0.007);
-  out.push_back({"thin_sheet", sheet, 0.2});
-  for (const char* file : {"bunny00.off", "armadillo.off"}) {
-    const auto path = test::asset(file);
-    if (!std::filesystem::exists(path)) continue;
-    TriangleMesh model = io::read_surface_mesh(path);
-    // A spacing for about 10⁴ elements (12 per cell volume h³).
-    const double h = std::cbrt(12.0 * surface_integrals(model).volume / 1e4);
-    out.push_back({file, std::move(model), h});
-  }
-  return out;
-}
+using test::Case;
 
 // With the clamp off, node masses carry the solid's exact mass and centre of
 // mass: the clipped volumes tile the solid, and b_i at each piece's centroid
 // keeps Σ m_i x_i = Σ m_e c_e. Round-off only: 1e-10 relative.
 TEST(ExactMass, TotalMassAndCentreOfMassAreTheSolids) {
   const double rho = 1234.0;
-  for (const Case& c : cases()) {
+  for (const Case& c : test::lattice_cases()) {
     SCOPED_TRACE(c.name);
     const LatticeMesh lm = build_lattice_mesh(c.surface, c.h);
     const ElementSolid solid = clip_solid_to_elements(lm, c.surface);
@@ -72,7 +44,7 @@ TEST(ExactMass, TotalMassAndCentreOfMassAreTheSolids) {
 
 // The thin sheet has no inside node, so every gram comes from clipping.
 TEST(ExactMass, ThinSheetHasNoInsideNodeButItsFullMass) {
-  const Case sheet = cases()[3];
+  const Case sheet = test::lattice_cases()[3];
   const LatticeMesh lm = build_lattice_mesh(sheet.surface, sheet.h);
   EXPECT_EQ(std::count(lm.node_inside.begin(), lm.node_inside.end(), 1), 0);
   const ElementSolid solid = clip_solid_to_elements(lm, sheet.surface);
