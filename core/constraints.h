@@ -2,6 +2,7 @@
 // Kinematic constraints of a body: pinned nodes, nodes moved along a
 // prescribed path, and a ground half-space nodes cannot cross (a stand-in
 // until collisions on the embedded surface land).
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <vector>
@@ -26,6 +27,13 @@ struct HalfSpace {
   double offset = 0.0;
   double friction = 0.0;
 };
+
+struct Body;
+
+/// Pushes the free nodes below the ground back onto it, removing their inward
+/// normal velocity and reducing their tangential velocity by friction × the
+/// removed normal speed (Coulomb). Returns the nodes in contact.
+Index enforce_ground(Body& body, const HalfSpace& ground, const std::vector<std::uint8_t>& fixed);
 
 struct Constraints {
   std::vector<Index> pinned;

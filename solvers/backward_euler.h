@@ -1,0 +1,72 @@
+#pragma once
+// Backward Euler (ours; algorithms.md, "Time integration"): each step
+// minimises the incremental potential
+//   E(x) = ½ Δt⁻² ‖x − x̂‖²_M + Ψ(x) + Δt D((x − xⁿ)/Δt),  x̂ = xⁿ + Δt vⁿ + Δt² g,
+// (Ψ the elastic energy of Fe, D = ½ vᵀ C v the viscous dissipation with Fe
+// frozen at the start of the step) by Newton's method with per-element
+// Hessians projected to positive semi-definite, a backtracking line search
+// on E, and CHOLMOD's supernodal Cholesky whose symbolic analysis is kept
+// until the mesh topology changes. vⁿ⁺¹ = (xⁿ⁺¹ − xⁿ)/Δt; plastic flow after
+// convergence; then the ground and the surface collisions.
+#include <memory>
+
+#include "core/body.h"
+#include "core/collisions.h"
+#include "core/constraints.h"
+#include "core/elastic_forces.h"
+#include "solvers/sparse_hessian.h"
+
+namespace goo {
+
+struct BackwardEulerSettings {
+  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  ///< m/s²
+  double time_step = 1e-2;                                     ///< s, the step it tries first
+  double tolerance = 1e-8;    ///< ‖∇E‖∞ over free nodes, relative to the scene's force scale
+  int max_newton_iterations = 30;
+  int max_halvings = 8;  ///< a step that does not converge is retried at half Δt
+};
+
+/// What one step did.
+struct NewtonStatus {
+  double dt = 0.0;             ///< the step taken, s
+  int iterations = 0;          ///< Newton iterations of the accepted attempt
+  int line_search_steps = 0;   ///< halvings of the Newton step, all iterations
+  int halvings = 0;            ///< retries at half Δt before it converged
+  double residual = 0.0;       ///< final ‖∇E‖∞ / force scale
+  std::vector<double> residuals;  ///< after each iteration (convergence history)
+  Index plastic_elements = 0;
+  Index collisions = 0;
+};
+
+class BackwardEulerIntegrator {
+ public:
+  BackwardEulerIntegrator(BackwardEulerSettings settings, Constraints constraints);
+  ~BackwardEulerIntegrator();
+
+  /// One step of at most min(settings.time_step, max_dt). goo::Error if it
+  /// does not converge even after max_halvings halvings.
+  NewtonStatus step(Body& body, double max_dt);
+  /// Steps until t_end exactly; returns the steps taken.
+  int advance_to(Body& body, double t_end);
+
+  [[nodiscard]] double time() const { return time_; }
+  /// Symbolic factorisations so far (one per mesh topology).
+  [[nodiscard]] int symbolic_factorisations() const;
+  /// The incremental potential at x for the current step (exposed for tests).
+  [[nodiscard]] const SparseHessian& hessian() const { return hessian_; }
+
+ private:
+  bool try_step(Body& body, double dt, NewtonStatus& status);
+
+  BackwardEulerSettings settings_;
+  Constraints constraints_;
+  ElasticForces elastic_;
+  SparseHessian hessian_;
+  SurfaceCollisions collisions_;
+  struct Factor;
+  std::unique_ptr<Factor> factor_;
+  std::vector<std::uint8_t> fixed_;
+  double time_ = 0.0;
+};
+
+}  // namespace goo

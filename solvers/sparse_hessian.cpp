@@ -1,0 +1,124 @@
+#include "solvers/sparse_hessian.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+
+#include "core/elastic_forces.h"
+#include "core/elasticity.h"
+#include "core/parallel.h"
+#include "core/svd3.h"
+
+namespace goo {
+namespace {
+
+constexpr int kLowerEntries = 78;  // 12 · 13 / 2
+
+/// G = ∂vec(Fe)/∂x (9×12, vec column-major) for Fe = Ds B, B = Dm⁻¹ Fp⁻¹:
+/// ∂Fe_il/∂x_ji = b_j(l) with b_j = row j−1 of B (j ≥ 1), b_0 = −Σ rows.
+Eigen::Matrix<double, 9, 12> fe_gradient(const Eigen::Matrix3d& B) {
+  Eigen::Matrix<double, 9, 12> G = Eigen::Matrix<double, 9, 12>::Zero();
+  for (int j = 0; j < 4; ++j) {
+    const Eigen::RowVector3d b = j == 0 ? Eigen::RowVector3d(-B.colwise().sum()) : Eigen::RowVector3d(B.row(j - 1));
+    for (int l = 0; l < 3; ++l)
+      for (int i = 0; i < 3; ++i) G(3 * l + i, 3 * j + i) = b[l];
+  }
+  return G;
+}
+
+}  // namespace
+
+bool SparseHessian::matches(const Tets& tets, Index num_nodes) const {
+  return matrix_.rows() == 3 * num_nodes && tets_.rows() == tets.rows() && tets_ == tets;
+}
+
+void SparseHessian::build(const Tets& tets, Index num_nodes) {
+  ++builds_;
+  tets_ = tets;
+  const auto ne = static_cast<Index>(tets.rows());
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(at(ne) * kLowerEntries + at(3 * num_nodes));
+  auto dof = [&](Index e, int a) { return 3 * tets(e, a / 3) + a % 3; };
+  for (Index e = 0; e < ne; ++e)
+    for (int a = 0; a < 12; ++a)
+      for (int b = 0; b < 12; ++b) {
+        const Index r = dof(e, a), c = dof(e, b);
+        if (r >= c) triplets.emplace_back(r, c, 0.0);
+      }
+  for (Index i = 0; i < 3 * num_nodes; ++i) triplets.emplace_back(i, i, 0.0);
+  matrix_.resize(3 * num_nodes, 3 * num_nodes);
+  matrix_.setFromTriplets(triplets.begin(), triplets.end());
+  matrix_.makeCompressed();
+  auto slot = [&](Index r, Index c) {
+    const Index* begin = matrix_.innerIndexPtr() + matrix_.outerIndexPtr()[c];
+    const Index* end = matrix_.innerIndexPtr() + matrix_.outerIndexPtr()[c + 1];
+    return static_cast<Index>(std::lower_bound(begin, end, r) - matrix_.innerIndexPtr());
+  };
+  // Per element, all 144 entries mapped to their lower-triangle slot.
+  slots_.resize(at(ne) * 144);
+  for (Index e = 0; e < ne; ++e)
+    for (int a = 0; a < 12; ++a)
+      for (int b = 0; b < 12; ++b) {
+        const Index r = dof(e, a), c = dof(e, b);
+        slots_[at(e) * 144 + static_cast<std::size_t>(12 * a + b)] = r >= c ? slot(r, c) : -1;
+      }
+  diagonal_slots_.resize(at(3 * num_nodes));
+  for (Index i = 0; i < 3 * num_nodes; ++i) diagonal_slots_[at(i)] = slot(i, i);
+}
+
+void SparseHessian::assemble(const std::vector<Matrix12>& blocks, const Eigen::VectorXd& diagonal) {
+  double* values = matrix_.valuePtr();
+  std::fill(values, values + matrix_.nonZeros(), 0.0);
+  // Element order: the same sums for any thread count.
+  for (std::size_t e = 0; e < blocks.size(); ++e)
+    for (int a = 0; a < 12; ++a)
+      for (int b = 0; b < 12; ++b) {
+        const Index s = slots_[e * 144 + static_cast<std::size_t>(12 * a + b)];
+        if (s >= 0) values[s] += blocks[e](a, b);
+      }
+  for (Index i = 0; i < diagonal.size(); ++i) values[diagonal_slots_[at(i)]] += diagonal[i];
+}
+
+void SparseHessian::fix_nodes(const std::vector<std::uint8_t>& fixed) {
+  for (Index c = 0; c < matrix_.outerSize(); ++c)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(matrix_, c); it; ++it) {
+      const bool row_fixed = fixed[at(static_cast<Index>(it.row()) / 3)] != 0;
+      const bool col_fixed = fixed[at(c / 3)] != 0;
+      if (row_fixed || col_fixed) it.valueRef() = it.row() == c ? 1.0 : 0.0;
+    }
+}
+
+Matrix12 element_elastic_hessian(const Body& body, const Points& x, Index e, bool project) {
+  const Eigen::Matrix3d& Fp = body.Fp[at(e)];
+  const Eigen::Matrix3d Fp_inv = Fp.inverse();
+  const Eigen::Matrix3d Fe = deformation_gradient(body, x, e) * Fp_inv;
+  const IsotropicEnergy energy(body.material);
+  Matrix9d A = first_piola_derivative(energy, svd3(Fe));
+  A = 0.5 * (A + A.transpose());
+  if (project) {
+    const Eigen::SelfAdjointEigenSolver<Matrix9d> eig(A);
+    A = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
+  }
+  const Eigen::Matrix<double, 9, 12> G = fe_gradient(body.Dm_inv[at(e)] * Fp_inv);
+  const double volume = body.rest_volumes[e] * Fp.determinant();
+  return volume * G.transpose() * A * G;
+}
+
+Matrix12 element_damping_matrix(const Body& body, const Eigen::Matrix3d& Fe, Index e) {
+  const Eigen::Matrix3d& Fp = body.Fp[at(e)];
+  const Eigen::Matrix3d Fp_inv = Fp.inverse();
+  const Eigen::Matrix<double, 9, 12> G = fe_gradient(body.Dm_inv[at(e)] * Fp_inv);
+  // L vec(X) = vec(sym(Feᵀ X)).
+  Matrix9d L = Matrix9d::Zero();
+  for (int c = 0; c < 9; ++c) {
+    Eigen::Matrix3d X = Eigen::Matrix3d::Zero();
+    X(c % 3, c / 3) = 1.0;
+    const Eigen::Matrix3d M = Fe.transpose() * X;
+    const Eigen::Matrix3d S = 0.5 * (M + M.transpose());
+    L.col(c) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(S.data());
+  }
+  const Eigen::Matrix<double, 9, 12> LG = L * G;
+  const double volume = body.rest_volumes[e] * Fp.determinant();
+  return 2.0 * volume * body.material.viscosity * LG.transpose() * LG;
+}
+
+}  // namespace goo

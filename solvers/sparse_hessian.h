@@ -1,0 +1,49 @@
+#pragma once
+// The sparse Hessian of a body's implicit step: pattern and element-to-slot
+// map computed once per mesh topology, values assembled from per-element
+// 12×12 blocks (computed in parallel, added in element order: deterministic).
+#include <Eigen/SparseCore>
+#include <vector>
+
+#include "core/body.h"
+
+namespace goo {
+
+using Matrix12 = Eigen::Matrix<double, 12, 12>;
+
+/// Lower triangle (row ≥ column) of a symmetric 3N×3N matrix whose nonzeros
+/// are the 3×3 blocks of node pairs sharing an element.
+class SparseHessian {
+ public:
+  /// (Re)builds pattern and slots for these elements; counts how often.
+  void build(const Tets& tets, Index num_nodes);
+  /// Whether the pattern was built for exactly these elements.
+  [[nodiscard]] bool matches(const Tets& tets, Index num_nodes) const;
+  [[nodiscard]] int builds() const { return builds_; }
+
+  /// values = Σ_e blocks[e] (scattered by the slot map) + diagonal.
+  void assemble(const std::vector<Matrix12>& blocks, const Eigen::VectorXd& diagonal);
+  /// Rows and columns of fixed nodes become the identity.
+  void fix_nodes(const std::vector<std::uint8_t>& fixed);
+
+  [[nodiscard]] const Eigen::SparseMatrix<double>& matrix() const { return matrix_; }
+
+ private:
+  Tets tets_;
+  Eigen::SparseMatrix<double> matrix_;  // lower triangle, compressed
+  std::vector<Index> slots_;            // 78 × 4 … per element: its lower-triangle entries' value indices
+  std::vector<Index> diagonal_slots_;   // 3N
+  int builds_ = 0;
+};
+
+/// Element e's 12×12 elastic Hessian at positions x: V Gᵀ (dP/dF)⁺ G with
+/// V = W det Fp, G = ∂vec(Fe)/∂x, and (dP/dF)⁺ the 9×9 dP/dF with negative
+/// eigenvalues clamped to zero, so the block is positive semi-definite.
+Matrix12 element_elastic_hessian(const Body& body, const Points& x, Index e, bool project = true);
+
+/// Element e's 12×12 damping matrix C_e = 2 V β (L G)ᵀ (L G) with Fe frozen
+/// (L: δFe ↦ sym(Feᵀ δFe)): the dissipation is ½ vᵀ C_e v and the viscous
+/// force −C_e v (core/damping.h). Positive semi-definite.
+Matrix12 element_damping_matrix(const Body& body, const Eigen::Matrix3d& Fe, Index e);
+
+}  // namespace goo
