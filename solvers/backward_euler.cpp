@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "core/log.h"
 #include "core/parallel.h"
+#include "solvers/linear_algebra_threads.h"
 
 namespace goo {
 
@@ -22,6 +23,13 @@ struct BackwardEulerIntegrator::Factor {
 
 BackwardEulerIntegrator::BackwardEulerIntegrator(BackwardEulerSettings settings, Constraints constraints)
     : settings_(std::move(settings)), constraints_(std::move(constraints)), factor_(std::make_unique<Factor>()) {
+  // One BLAS thread: TBB already runs the assembly on every core, and BLAS
+  // threads spinning next to TBB's workers cost more than they bring.
+  static const bool configured = [] {
+    set_linear_algebra_threads(1);
+    return true;
+  }();
+  (void)configured;
   if (!(settings_.time_step > 0.0) || !std::isfinite(settings_.time_step))
     throw Error(fmt::format("backward_euler.time_step must be positive, got {}", settings_.time_step));
 }
