@@ -19,7 +19,33 @@ struct BackwardEulerIntegrator::Factor {
   Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;
   int symbolic = 0;
   int analysed_for = -1;  // SparseHessian::builds() when last analysed
+  int factored_for = -1;  // the same, for the last numerical factor (the lagged preconditioner)
 };
+
+bool BackwardEulerIntegrator::lagged_pcg(const Eigen::VectorXd& b, Eigen::VectorXd& x, NewtonStatus& status) {
+  // CG on the lower-triangle-stored symmetric H, preconditioned by the last
+  // factor: x₀ = L⁻ᵀL⁻¹ b, stop at relative residual 1e-10 (Newton needs no more).
+  const auto H = hessian_.matrix().selfadjointView<Eigen::Lower>();
+  x = factor_->llt.solve(b);
+  Eigen::VectorXd r = b - H * x;
+  const double b_norm = b.norm();
+  if (b_norm == 0.0) return true;
+  Eigen::VectorXd z = factor_->llt.solve(r), p = z, Ap;
+  double rz = r.dot(z);
+  for (int k = 0; k < settings_.pcg_max_iterations; ++k) {
+    if (r.norm() <= 1e-10 * b_norm) return true;
+    Ap = H * p;
+    const double alpha = rz / p.dot(Ap);
+    x += alpha * p;
+    r -= alpha * Ap;
+    ++status.pcg_iterations;
+    z = factor_->llt.solve(r);
+    const double rz_next = r.dot(z);
+    p = z + (rz_next / rz) * p;
+    rz = rz_next;
+  }
+  return r.norm() <= 1e-10 * b_norm;
+}
 
 BackwardEulerIntegrator::BackwardEulerIntegrator(BackwardEulerSettings settings, Constraints constraints)
     : settings_(std::move(settings)), constraints_(std::move(constraints)), factor_(std::make_unique<Factor>()) {
@@ -150,11 +176,21 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
       ++factor_->symbolic;
       factor_->analysed_for = hessian_.builds();
     }
-    factor_->llt.factorize(hessian_.matrix());
-    if (factor_->llt.info() != Eigen::Success) return false;
     const Eigen::VectorXd rhs = -Eigen::Map<const Eigen::VectorXd>(gradient.data(), 3 * nn);
-    const Eigen::VectorXd dx = factor_->llt.solve(rhs);
-    if (factor_->llt.info() != Eigen::Success || !dx.allFinite()) return false;
+    Eigen::VectorXd dx;
+    bool solved = false;
+    if (settings_.linear_solver == LinearSolver::lagged_pcg && factor_->factored_for == hessian_.builds()) {
+      solved = lagged_pcg(rhs, dx, status);
+    }
+    if (!solved) {
+      factor_->llt.factorize(hessian_.matrix());
+      ++status.factorisations;
+      if (factor_->llt.info() != Eigen::Success) return false;
+      factor_->factored_for = hessian_.builds();
+      dx = factor_->llt.solve(rhs);
+      if (factor_->llt.info() != Eigen::Success) return false;
+    }
+    if (!dx.allFinite()) return false;
     const Eigen::Map<const Points> step(dx.data(), nn, 3);
     // Backtracking (Armijo) on E along the Newton direction. Once the
     // predicted decrease is below what E resolves (its terms carry relative

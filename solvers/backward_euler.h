@@ -18,12 +18,20 @@
 
 namespace goo {
 
+/// How each Newton system is solved.
+enum class LinearSolver {
+  direct,      ///< CHOLMOD factorisation every iteration
+  lagged_pcg,  ///< conjugate gradients preconditioned with the last factor, refactored when CG needs too many iterations
+};
+
 struct BackwardEulerSettings {
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  ///< m/s²
   double time_step = 1e-2;                                     ///< s, the step it tries first
   double tolerance = 1e-8;    ///< ‖∇E‖∞ over free nodes, relative to the scene's force scale
   int max_newton_iterations = 30;
   int max_halvings = 8;  ///< a step that does not converge is retried at half Δt
+  LinearSolver linear_solver = LinearSolver::direct;
+  int pcg_max_iterations = 25;  ///< lagged_pcg: more than this and the factor is renewed
 };
 
 /// What one step did.
@@ -32,6 +40,8 @@ struct NewtonStatus {
   int iterations = 0;          ///< Newton iterations of the accepted attempt
   int line_search_steps = 0;   ///< halvings of the Newton step, all iterations
   int halvings = 0;            ///< retries at half Δt before it converged
+  int factorisations = 0;      ///< numerical factorisations, all attempts
+  int pcg_iterations = 0;      ///< lagged_pcg: CG iterations, all attempts
   double residual = 0.0;       ///< final ‖∇E‖∞ / force scale
   std::vector<double> residuals;  ///< after each iteration (convergence history)
   Index plastic_elements = 0;
@@ -57,6 +67,9 @@ class BackwardEulerIntegrator {
 
  private:
   bool try_step(Body& body, double dt, NewtonStatus& status);
+  /// Solves H x = b by CG preconditioned with the last factor; false if it
+  /// needs more than pcg_max_iterations (the caller then refactors).
+  bool lagged_pcg(const Eigen::VectorXd& b, Eigen::VectorXd& x, NewtonStatus& status);
 
   BackwardEulerSettings settings_;
   Constraints constraints_;
