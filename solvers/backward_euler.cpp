@@ -9,6 +9,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "solvers/stepping.h"
 #include "core/log.h"
 #include "core/parallel.h"
 #include "solvers/linear_algebra_threads.h"
@@ -251,13 +252,7 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
 }
 
 int BackwardEulerIntegrator::advance_to(Body& body, double t_end) {
-  int steps = 0;
-  while (time_ < t_end) {
-    step(body, t_end - time_);
-    ++steps;
-    if (t_end - time_ < 1e-12 * std::max(1.0, std::abs(t_end))) time_ = t_end;
-  }
-  return steps;
+  return step_until(time_, t_end, [&](double max_dt) { step(body, max_dt); });
 }
 
 }  // namespace goo

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "solvers/stepping.h"
 
 namespace goo {
 namespace {
@@ -216,14 +217,7 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
 }
 
 int NewmarkIntegrator::advance_to(Body& body, double t_end) {
-  int steps = 0;
-  while (time_ < t_end) {
-    step(body, t_end - time_);
-    ++steps;
-    // Land exactly on t_end despite round-off in the sum of steps.
-    if (t_end - time_ < 1e-12 * std::max(1.0, std::abs(t_end))) time_ = t_end;
-  }
-  return steps;
+  return step_until(time_, t_end, [&](double max_dt) { step(body, max_dt); });
 }
 
 }  // namespace goo
