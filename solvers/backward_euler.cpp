@@ -180,7 +180,9 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
     const Eigen::VectorXd rhs = -Eigen::Map<const Eigen::VectorXd>(gradient.data(), 3 * nn);
     Eigen::VectorXd dx;
     bool solved = false;
-    if (settings_.linear_solver == LinearSolver::lagged_pcg && factor_->factored_for == hessian_.builds()) {
+    const bool lagged = settings_.linear_solver == LinearSolver::lagged_pcg ||
+                        (settings_.linear_solver == LinearSolver::automatic && 3L * nn > kLaggedPcgUnknowns);
+    if (lagged && factor_->factored_for == hessian_.builds()) {
       solved = lagged_pcg(rhs, dx, status);
     }
     if (!solved) {

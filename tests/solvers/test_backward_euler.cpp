@@ -238,6 +238,24 @@ TEST(BackwardEuler, LaggedPcgFollowsTheDirectSolveWithFewerFactorisations) {
   EXPECT_LT(lagged, direct / 2);
 }
 
+// automatic: the lagged preconditioner above 10k unknowns (14³ cells: 10,125).
+TEST(BackwardEuler, AutomaticSolverLagsTheFactorOnLargeSystems) {
+  Body body = box(material(ElasticModel::neo_hookean, 1e5, 0.3, 3.0), 14);
+  ASSERT_GT(3L * body.num_nodes(), kLaggedPcgUnknowns);
+  for (Index n = 0; n < body.num_nodes(); ++n) body.velocities(n, 0) = 2.0 * body.positions(n, 2);
+  BackwardEulerSettings settings;
+  settings.time_step = 1e-2;
+  BackwardEulerIntegrator integrator(settings, {});
+  int factorisations = 0, iterations = 0;
+  for (int i = 0; i < 3; ++i) {
+    const NewtonStatus status = integrator.step(body, 1.0);
+    factorisations += status.factorisations;
+    iterations += status.iterations;
+  }
+  EXPECT_GT(iterations, 3);
+  EXPECT_LT(factorisations, iterations);
+}
+
 TEST(BackwardEuler, SameBitsForAnyThreadCount) {
   auto run = [](int threads) {
     tbb::global_control control(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
