@@ -2,6 +2,7 @@
 #include <tbb/global_control.h>
 
 #include <filesystem>
+#include <numbers>
 #include <random>
 
 #include "core/primitives.h"
@@ -99,14 +100,34 @@ TEST(SurfaceTension, BothFormsConvergeToTheMeanCurvatureForceOnSpheres) {
   }
 }
 
-TEST(SurfaceTension, SmoothingKeepsAPlaneAndShrinksABump) {
+// The umbrella step moves a vertex towards the weighted mean of its
+// neighbours: a vertex whose neighbours all lie in its face's plane stays in
+// that plane (exactly: the weighted sum of in-plane offsets), a bump shrinks.
+TEST(SurfaceTension, SmoothingKeepsPlanesAndShrinksABump) {
+  TriangleMesh box = make_box({1.0, 1.0, 1.0}, 4);
+  const SurfaceTopology box_topology = SurfaceTopology::build(box.triangles, box.num_vertices());
+  const Points before_box = box.vertices;
+  smooth_surface(box.vertices, box_topology, 0.5);
+  int interior = 0;
+  for (Index v = 0; v < box.num_vertices(); ++v) {
+    // Inside the top face: |x|, |y| < 0.5 on z = 0.5.
+    if (before_box(v, 2) != 0.5 || std::abs(before_box(v, 0)) >= 0.5 || std::abs(before_box(v, 1)) >= 0.5) continue;
+    ++interior;
+    EXPECT_EQ(box.vertices(v, 2), 0.5) << "vertex " << v;
+  }
+  EXPECT_EQ(interior, 9);
+
   TriangleMesh sphere = make_sphere(1.0, 16);
   const SurfaceTopology topology = SurfaceTopology::build(sphere.triangles, sphere.num_vertices());
   sphere.vertices.row(5) *= 1.3;
   const double before = sphere.vertices.row(5).norm();
   smooth_surface(sphere.vertices, topology, 0.5);
-  EXPECT_LT(sphere.vertices.row(5).norm(), before);
-  EXPECT_TRUE(std::isfinite(surface_tension_time_step(1000.0, 0.1, 0.07)));
+  EXPECT_LT(sphere.vertices.row(5).norm(), before - 0.05);
+}
+
+// Brackbill's capillary bound √(ρ h³ / (2π σ)), and no bound without tension.
+TEST(SurfaceTension, CapillaryTimeStep) {
+  EXPECT_DOUBLE_EQ(surface_tension_time_step(1000.0, 0.1, 0.07), std::sqrt(1000.0 * 1e-3 / (2.0 * std::numbers::pi * 0.07)));
   EXPECT_EQ(surface_tension_time_step(1000.0, 0.1, 0.0), std::numeric_limits<double>::infinity());
 }
 
