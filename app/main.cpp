@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "app/info_command.h"
+#include "app/run_command.h"
 #include "core/error.h"
 #include "core/log.h"
 
@@ -32,6 +33,16 @@ int main(int argc, char** argv) {
   info->add_option("MESH", mesh_path, "Surface mesh file")->required();
   info->add_flag("--json", json, "Print the report as JSON");
 
+  goo::app::RunOptions run_options;
+  CLI::App* run = app.add_subcommand(
+      "run", "Run a scene: frames, checkpoints and summary.json into the output folder (no scene: the built-in demo)");
+  run->add_option("SCENE", run_options.scene, "Scene file (JSON, docs/scene-format.md)");
+  run->add_option("--out", run_options.out, "Output folder (default: the scene's output.folder)");
+  run->add_option("--frames", run_options.frames, "Last frame to write (default: the scene's output.frames)");
+  run->add_option("--threads", run_options.threads, "Worker threads (default: all cores)");
+  run->add_option("--resume", run_options.resume, "Continue from this checkpoint (the scene is stored in it)");
+  run->add_flag("--quiet", run_options.quiet, "No progress or log lines, only errors");
+  run->add_flag("--overwrite", run_options.overwrite, "Replace the frames of an earlier run in the output folder");
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -45,6 +56,10 @@ int main(int argc, char** argv) {
 
   try {
     if (info->parsed()) return goo::app::run_info(mesh_path, json, std::cout);
+    if (run->parsed()) {
+      if (run_options.quiet) goo::log().set_level(spdlog::level::warn);
+      return goo::app::run_scene(run_options);
+    }
     std::cout << app.help();
     return 0;
   } catch (const goo::Error& e) {

@@ -1,8 +1,10 @@
 #include "core/material.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
+#include <limits>
 
 #include "core/error.h"
 
@@ -29,9 +31,9 @@ ElasticModel elastic_model_from_string(std::string_view name) {
       fmt::format("unknown elastic model '{}' (expected neo_hookean, fixed_corotated or stable_neo_hookean)", name));
 }
 
-void validate(const Material& m, std::string_view where) {
+void validate(const Material& m, std::string_view where, char separator) {
   auto fail = [&](std::string_view field, std::string_view rule, double value) {
-    throw Error(fmt::format("{}.{} must be {}, got {}", where, field, rule, value));
+    throw Error(fmt::format("{}{}{} must be {}, got {}", where, separator, field, rule, value));
   };
   if (!(m.density > 0.0) || !std::isfinite(m.density)) fail("density", "positive and finite", m.density);
   if (!(m.youngs_modulus > 0.0) || !std::isfinite(m.youngs_modulus)) {
@@ -47,6 +49,42 @@ void validate(const Material& m, std::string_view where) {
   if (!(m.min_mass_fraction >= 0.0 && m.min_mass_fraction <= 1.0)) {
     fail("min_mass_fraction", "in [0, 1]", m.min_mass_fraction);
   }
+}
+
+namespace {
+struct Preset {
+  const char* name;
+  double youngs_modulus, viscosity, yield_stress, flow_rate;
+};
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr Preset kPresets[] = {
+    {"rigid_brick", 1e6, 20.0, kInf, 0.0},      {"viscous_ooze", 1e4, 100.0, 5.0, 50.0},
+    {"jiggly_gelatin", 2e4, 2.0, kInf, 0.0},    {"gooey_jelly", 2e4, 10.0, 400.0, 20.0},
+    {"splashing_fluid", 5e3, 0.5, 1.0, 400.0},
+};
+}  // namespace
+
+const std::vector<std::string>& material_preset_names() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> out;
+    for (const Preset& p : kPresets) out.emplace_back(p.name);
+    return out;
+  }();
+  return names;
+}
+
+Material material_preset(std::string_view name) {
+  for (const Preset& p : kPresets) {
+    if (name != p.name) continue;
+    Material m;
+    m.youngs_modulus = p.youngs_modulus;
+    m.viscosity = p.viscosity;
+    m.yield_stress = p.yield_stress;
+    m.flow_rate = p.flow_rate;
+    return m;
+  }
+  throw Error(fmt::format("unknown material preset '{}' (expected one of {})", name,
+                          fmt::join(material_preset_names(), ", ")));
 }
 
 }  // namespace goo

@@ -3,6 +3,7 @@
 #include <limits>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace goo {
 
@@ -40,6 +41,20 @@ struct Material {
 /// Refuses impossible parameters with goo::Error naming the field
 /// ("material.poisson_ratio must be in [0, 0.5), got 0.5"). `where` prefixes
 /// the field names (a scene path, say).
-void validate(const Material& material, std::string_view where = "material");
+void validate(const Material& material, std::string_view where = "material", char separator = '.');
+
+/// The five behaviours of W&T figure 3, as named presets (our values: the
+/// paper gives its parameters only in a figure). Density 1000 kg/m³,
+/// Poisson 0.3, fixed corotated elasticity:
+/// | preset          | E (Pa) | β (Pa·s) | PY (Pa) | ν (1/s) |
+/// | rigid_brick     | 1e6    | 20       | ∞       | 0       |
+/// | viscous_ooze    | 1e4    | 100      | 5       | 50      |
+/// | jiggly_gelatin  | 2e4    | 2        | ∞       | 0       |
+/// | gooey_jelly     | 2e4    | 10       | 400     | 20      |
+/// | splashing_fluid | 5e3    | 0.5      | 1       | 400     |
+/// goo::Error naming the presets for an unknown name.
+Material material_preset(std::string_view name);
+/// The preset names, in the order of the figure (rigid to fluid).
+const std::vector<std::string>& material_preset_names();
 
 }  // namespace goo

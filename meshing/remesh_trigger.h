@@ -5,13 +5,10 @@
 #include <Eigen/Core>
 
 #include "core/body.h"
+#include "core/settings.h"
 
 namespace goo {
 
-struct RemeshThresholds {
-  double condition_growth = 3.0;  ///< κ(Ds) / κ(Dm) that triggers
-  double min_barycentric = -0.2;  ///< a surface vertex's coordinate that triggers
-};
 
 /// Why a re-mesh is due, or not.
 struct RemeshCheck {
@@ -28,5 +25,11 @@ double condition_number(const Eigen::Matrix3d& Ds);
 RemeshCheck check_remesh(const Body& body, const Points& x,
                          const Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor>& bary,
                          const RemeshThresholds& thresholds = {});
+
+/// Whether check_remesh would find a re-mesh due, at a fraction of its cost
+/// (run after every step): in parallel, and with the SVD only for elements
+/// that fail the cheap bound κ₂(Ds) ≤ ‖Ds‖_F ‖Ds⁻¹‖_F.
+bool remesh_due(const Body& body, const Points& x, const Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor>& bary,
+                const RemeshThresholds& thresholds = {});
 
 }  // namespace goo

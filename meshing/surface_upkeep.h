@@ -4,15 +4,10 @@
 // plastic flow. Operates on the world-space surface before it is embedded
 // in the new lattice mesh.
 #include "core/triangle_mesh.h"
+#include "core/settings.h"
 
 namespace goo {
 
-struct UpkeepSettings {
-  /// Thresholds as fractions of the lattice spacing h (scene parameters).
-  double split_length = 0.5;     ///< split edges longer than this × h
-  double collapse_length = 0.05; ///< collapse edges shorter than this × h
-  int max_passes = 16;
-};
 
 struct UpkeepReport {
   Index splits = 0;

@@ -63,6 +63,8 @@ BackwardEulerIntegrator::BackwardEulerIntegrator(BackwardEulerSettings settings,
 
 BackwardEulerIntegrator::~BackwardEulerIntegrator() = default;
 
+void BackwardEulerIntegrator::invalidate() { factor_->factored_for = -1; }
+
 int BackwardEulerIntegrator::symbolic_factorisations() const { return factor_->symbolic; }
 
 namespace {

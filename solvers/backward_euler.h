@@ -14,32 +14,12 @@
 #include "core/collisions.h"
 #include "core/constraints.h"
 #include "core/elastic_forces.h"
+#include "core/settings.h"
 #include "solvers/sparse_hessian.h"
 
 namespace goo {
 
-/// How each Newton system is solved.
-enum class LinearSolver {
-  direct,      ///< CHOLMOD factorisation every iteration
-  lagged_pcg,  ///< conjugate gradients preconditioned with the last factor, refactored when CG needs too many iterations
-  /// direct below kLaggedPcgUnknowns unknowns, lagged_pcg above. Measured
-  /// here (docs/implicit.md): a refactorisation costs 64 solves at 32k
-  /// unknowns and 55 at 89k, so ≤ 25 preconditioned CG iterations are cheaper;
-  /// below ~10k unknowns a factorisation takes milliseconds and CG gains nothing.
-  automatic,
-};
 
-inline constexpr long kLaggedPcgUnknowns = 10000;
-
-struct BackwardEulerSettings {
-  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  ///< m/s²
-  double time_step = 1e-2;                                     ///< s, the step it tries first
-  double tolerance = 1e-8;    ///< ‖∇E‖∞ over free nodes, relative to the scene's force scale
-  int max_newton_iterations = 30;
-  int max_halvings = 8;  ///< a step that does not converge is retried at half Δt
-  LinearSolver linear_solver = LinearSolver::automatic;
-  int pcg_max_iterations = 25;  ///< lagged_pcg: more than this and the factor is renewed
-};
 
 /// What one step did.
 struct NewtonStatus {
@@ -67,6 +47,10 @@ class BackwardEulerIntegrator {
   int advance_to(Body& body, double t_end);
 
   [[nodiscard]] double time() const { return time_; }
+  void set_time(double t) { time_ = t; }
+  /// Forget the lagged factor, so that the next solve refactors: after this
+  /// the integrator's results depend on the body's state alone (a restart point).
+  void invalidate();
   /// Symbolic factorisations so far (one per mesh topology).
   [[nodiscard]] int symbolic_factorisations() const;
   /// The incremental potential at x for the current step (exposed for tests).

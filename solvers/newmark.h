@@ -7,24 +7,11 @@
 #include "core/constraints.h"
 #include "core/damping.h"
 #include "core/elastic_forces.h"
+#include "core/settings.h"
 #include "core/surface_tension.h"
 
 namespace goo {
 
-struct NewmarkSettings {
-  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  ///< m/s²
-  double cfl = 0.5;                                            ///< fraction of the elastic stability limit
-  double max_strain_per_step = 0.1;                            ///< bound on ‖Ḟ‖ Δt
-  double max_time_step = 1e-2;                                 ///< s
-  double cg_tolerance = 1e-12;                                 ///< relative residual of the damping solves
-  int cg_max_iterations = 1000;
-  /// Surface tension (when the material's σ > 0 and the body has a surface).
-  SurfaceTensionForm surface_tension_form = SurfaceTensionForm::area_gradient;
-  /// Umbrella smoothing of the surface per step: λ = smoothing × σ × Δt
-  /// (capped at ½), so the smoothing per unit time does not depend on Δt.
-  /// Units 1/(N/m · s); 0 turns it off.
-  double smoothing = 0.0;
-};
 
 /// What one step did.
 struct StepStatus {

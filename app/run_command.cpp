@@ -1,0 +1,336 @@
+#include "app/run_command.h"
+
+#include <fmt/format.h>
+#include <tbb/global_control.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "io/atomic_file.h"
+#include "io/checkpoint.h"
+#include "io/run_file.h"
+#include "io/scene_io.h"
+#include "io/surface_mesh_io.h"
+#include "solvers/linear_algebra_threads.h"
+#include "solvers/simulation.h"
+
+namespace goo::app {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+namespace fs = std::filesystem;
+
+volatile std::sig_atomic_t g_signal = 0;
+
+extern "C" void on_signal(int signal) { g_signal = signal; }
+
+/// Installs the SIGINT/SIGTERM handler for the lifetime of a run.
+class SignalGuard {
+ public:
+  SignalGuard() {
+    g_signal = 0;
+    struct sigaction action {};
+    action.sa_handler = on_signal;
+    sigemptyset(&action.sa_mask);
+    sigaction(SIGINT, &action, &old_int_);
+    sigaction(SIGTERM, &action, &old_term_);
+  }
+  ~SignalGuard() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+  SignalGuard(const SignalGuard&) = delete;
+  SignalGuard& operator=(const SignalGuard&) = delete;
+
+ private:
+  struct sigaction old_int_ {};
+  struct sigaction old_term_ {};
+};
+
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+std::string slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(fmt::format("{}: cannot open the scene file", path.string()));
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string clock_text(double seconds) {
+  if (!(seconds >= 0.0) || seconds > 1e7) return "--:--";
+  const auto s = static_cast<long>(seconds + 0.5);
+  return s >= 3600 ? fmt::format("{}:{:02d}:{:02d}", s / 3600, (s / 60) % 60, s % 60)
+                   : fmt::format("{}:{:02d}", s / 60, s % 60);
+}
+
+/// Progress on stderr: a bar redrawn in place on a terminal, a plain line
+/// every few seconds otherwise.
+class Progress {
+ public:
+  Progress(bool quiet, int first, int last) : quiet_(quiet), tty_(::isatty(STDERR_FILENO) != 0), first_(first), last_(last) {}
+
+  void update(int frame, double time, std::int64_t steps, std::int64_t remeshes, bool force = false) {
+    if (quiet_) return;
+    const double now = seconds_since(start_);
+    if (!force && now - shown_ < (tty_ ? 0.1 : 5.0)) return;
+    shown_ = now;
+    const double rate = now > 0.0 ? static_cast<double>(steps - steps0_) / now : 0.0;
+    const int done = frame - first_, total = last_ - first_;
+    const double eta = done > 0 ? now / done * (total - done) : -1.0;
+    const std::string text =
+        fmt::format("frame {}/{}  t = {:.3f} s  {:.0f} steps/s  {} re-meshes  ETA {}", frame, last_, time, rate,
+                    remeshes, done >= total ? "0:00" : clock_text(eta));
+    if (tty_) {
+      constexpr int width = 24;
+      const int filled = total > 0 ? width * done / total : width;
+      fmt::print(stderr, "\r[{}{}] {}\x1b[K", std::string(static_cast<std::size_t>(filled), '#'),
+                 std::string(static_cast<std::size_t>(width - filled), '.'), text);
+    } else {
+      fmt::print(stderr, "goo: {}\n", text);
+    }
+    std::fflush(stderr);
+  }
+  void set_steps0(std::int64_t steps) { steps0_ = steps; }
+  void finish() {
+    if (!quiet_ && tty_) fmt::print(stderr, "\n");
+  }
+
+ private:
+  bool quiet_, tty_;
+  int first_, last_;
+  std::int64_t steps0_ = 0;
+  Clock::time_point start_ = Clock::now();
+  double shown_ = -1e9;
+};
+
+struct Outputs {
+  fs::path folder;
+  const OutputSettings* settings;
+  std::unique_ptr<io::RunFile> run_file;
+  double seconds = 0.0;
+
+  void write_frame(int frame, const Simulation& sim) {
+    const auto start = Clock::now();
+    const TriangleMesh surface = sim.surface();
+    const fs::path frames = folder / "frames";
+    if (settings->ply) io::write_surface_mesh(frames / fmt::format("frame_{:05d}.ply", frame), surface);
+    if (settings->obj) io::write_surface_mesh(frames / fmt::format("frame_{:05d}.obj", frame), surface);
+    TetMesh tets;
+    if (settings->tet_mesh) {
+      Index nodes = 0, elements = 0;
+      for (const auto& b : sim.bodies()) {
+        nodes += b.body.num_nodes();
+        elements += b.body.num_elements();
+      }
+      tets.positions.resize(nodes, 3);
+      tets.tets.resize(elements, 4);
+      Index n0 = 0, e0 = 0;
+      for (const auto& b : sim.bodies()) {
+        tets.positions.middleRows(n0, b.body.num_nodes()) = b.body.positions;
+        tets.tets.middleRows(e0, b.body.num_elements()) = b.body.tets.array() + n0;
+        n0 += b.body.num_nodes();
+        e0 += b.body.num_elements();
+      }
+      io::write_tet_mesh_vtk(frames / fmt::format("tets_{:05d}.vtk", frame), tets);
+    }
+    if (run_file) run_file->write_frame(frame, sim.time(), surface, settings->tet_mesh ? &tets : nullptr);
+    seconds += seconds_since(start);
+  }
+};
+
+/// What a checkpoint adds to the simulation's own state.
+void add_run_fields(StateRecord& record, const Scene& scene, int frame, const SimulationTotals& initial) {
+  record.put("run/frame", static_cast<std::int64_t>(frame));
+  record.put("run/initial_mass", initial.mass);
+  record.put("run/initial_volume", initial.volume);
+  record.put_matrix("run/initial_momentum", initial.momentum.transpose());
+  record.put_string("scene/text", scene.text);
+  record.put_string("scene/source", scene.source);
+  record.put_string("scene/base_folder", scene.base_folder);
+}
+
+bool no_external_force(const Scene& scene) {
+  if (scene.gravity.norm() > 0.0 || scene.ground || !scene.obstacles.empty()) return false;
+  for (const auto& o : scene.objects)
+    if (!o.pinned.empty()) return false;
+  return true;
+}
+
+}  // namespace
+
+int run_scene(const RunOptions& options) {
+  const auto wall_start = Clock::now();
+  // 1. Everything that can be refused is read and checked before anything is written.
+  std::optional<StateRecord> resumed;
+  Scene scene;
+  if (options.resume) {
+    resumed = io::read_checkpoint(*options.resume);
+    const std::string& text = resumed->string("scene/text");
+    if (options.scene && slurp(*options.scene) != text)
+      throw Error(fmt::format("{}: differs from the scene stored in the checkpoint {}; resume without a scene file, "
+                              "or with the one the run started from",
+                              *options.scene, *options.resume));
+    scene = io::parse_scene(text, resumed->string("scene/source"), resumed->string("scene/base_folder"));
+  } else if (options.scene) {
+    scene = io::read_scene(*options.scene);
+  } else {
+    scene = io::parse_scene(io::default_scene_text(), "<built-in demo>", fs::current_path());
+  }
+  const int last_frame = options.frames.value_or(scene.output.frames);
+  if (last_frame < 0) throw Error(fmt::format("--frames must be non-negative, got {}", last_frame));
+  const fs::path folder = options.out.value_or(scene.output.folder);
+  if (options.threads < 0) throw Error(fmt::format("--threads must be positive, got {}", options.threads));
+  std::unique_ptr<tbb::global_control> threads;
+  if (options.threads > 0)
+    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    static_cast<std::size_t>(options.threads));
+  set_linear_algebra_threads(1);
+
+  std::error_code ec;
+  const bool earlier_frames = fs::exists(folder / "frames" / "frame_00000.ply", ec) ||
+                              fs::exists(folder / "frames" / "frame_00000.obj", ec);
+  if (!options.resume && earlier_frames && !options.overwrite)
+    throw Error(fmt::format("{}: holds the frames of an earlier run; pass --overwrite to replace them, --resume to "
+                            "continue it, or choose another --out",
+                            folder.string()));
+  if (fs::exists(folder, ec) && !fs::is_directory(folder, ec))
+    throw Error(fmt::format("{}: --out must be a folder", folder.string()));
+
+  Simulation sim(scene);
+  int frame = 0;
+  SimulationTotals initial = sim.totals();
+  if (resumed) {
+    sim.load(*resumed);
+    frame = static_cast<int>(resumed->integer("run/frame"));
+    initial.mass = resumed->real("run/initial_mass");
+    initial.volume = resumed->real("run/initial_volume");
+    initial.momentum = resumed->matrix("run/initial_momentum", 3).row(0).transpose();
+    if (frame > last_frame)
+      throw Error(fmt::format("{}: the checkpoint is at frame {}, past the last frame {} asked for", *options.resume,
+                              frame, last_frame));
+  }
+
+  // 2. The output folder.
+  fs::create_directories(folder / "frames", ec);
+  if (!ec) fs::create_directories(folder / "checkpoints", ec);
+  if (ec) throw Error(fmt::format("{}: cannot create the output folder: {}", folder.string(), ec.message()));
+  Outputs outputs{folder, &scene.output, nullptr, 0.0};
+  if (scene.output.hdf5) outputs.run_file = std::make_unique<io::RunFile>(folder, resumed ? frame + 1 : 0);
+  double checkpoint_seconds = 0.0;
+  auto write_checkpoint = [&](const StateRecord& record) {
+    const auto start = Clock::now();
+    const int f = static_cast<int>(record.integer("run/frame"));
+    io::write_checkpoint(folder / "checkpoints" / fmt::format("frame_{:05d}.h5", f), record);
+    checkpoint_seconds += seconds_since(start);
+  };
+  auto snapshot = [&](int f) {
+    StateRecord record = sim.save();
+    add_run_fields(record, scene, f, initial);
+    return record;
+  };
+
+  if (!options.quiet) {
+    const SimulationTotals t = sim.totals();
+    log().info("{}: {} objects, {} elements, {} surface triangles, {} integrator, frames {} to {} at {} fps into {}",
+               scene.source, scene.objects.size(), t.elements, t.surface_triangles, to_string(scene.integrator),
+               frame, last_frame, scene.output.fps, folder.string());
+  }
+  if (!resumed) outputs.write_frame(0, sim);
+
+  // 3. Frames. Each frame boundary is a restart point, so a checkpoint taken
+  // there resumes bitwise identically.
+  SignalGuard signals;
+  Progress progress(options.quiet, frame, last_frame);
+  progress.set_steps0(sim.steps());
+  std::string status = "completed", failure;
+  int exit_code = 0;
+  StateRecord boundary;
+  const int first_frame = frame;
+  while (true) {
+    sim.make_restart_point();
+    boundary = snapshot(frame);
+    if (frame >= last_frame) break;
+    const int every = scene.checkpoint_every_frames;
+    if (every > 0 && frame > first_frame && frame % every == 0) write_checkpoint(boundary);
+    bool completed = false;
+    try {
+      completed = sim.advance_to((frame + 1) / scene.output.fps, [] { return g_signal != 0; });
+    } catch (const NumericalFailure& e) {
+      progress.finish();
+      failure = e.what();
+      log().error("{}", failure);
+      log().error("the last good checkpoint is kept in {}", (folder / "checkpoints").string());
+      status = "failed";
+      exit_code = kExitNumericalFailure;
+      break;
+    }
+    if (!completed || g_signal != 0) {
+      progress.finish();
+      log().warn("interrupted by signal {}: writing the checkpoint of frame {}", static_cast<int>(g_signal), frame);
+      write_checkpoint(boundary);
+      status = "interrupted";
+      exit_code = kExitInterrupted;
+      break;
+    }
+    ++frame;
+    outputs.write_frame(frame, sim);
+    progress.update(frame, sim.time(), sim.steps(), sim.remeshes(), frame == last_frame);
+  }
+  if (exit_code == 0) {
+    progress.finish();
+    write_checkpoint(boundary);  // the run's end
+  }
+
+  // 4. The summary.
+  const SimulationTotals now = sim.totals();
+  const StageTimes& st = sim.stage_times();
+  nlohmann::json j;
+  j["status"] = status;
+  if (!failure.empty()) j["failure"] = failure;
+  j["scene"] = scene.source;
+  j["integrator"] = std::string(to_string(scene.integrator));
+  j["frames"] = frame;
+  j["fps"] = scene.output.fps;
+  j["simulated_seconds"] = sim.time();
+  j["wall_seconds"] = seconds_since(wall_start);
+  j["stages"] = {{"integrate", st.integrate},       {"remesh_check", st.remesh_check}, {"remesh", st.remesh},
+                 {"safety_checks", st.safety},       {"frames_output", outputs.seconds},
+                 {"checkpoints", checkpoint_seconds}};
+  j["steps"] = sim.steps();
+  j["remeshes"] = sim.remeshes();
+  j["nodes"] = now.nodes;
+  j["elements"] = now.elements;
+  j["surface_vertices"] = now.surface_vertices;
+  j["surface_triangles"] = now.surface_triangles;
+  j["initial_mass"] = initial.mass;
+  j["total_mass"] = now.mass;
+  j["initial_volume"] = initial.volume;
+  j["final_volume"] = now.volume;
+  j["linear_momentum"] = {now.momentum.x(), now.momentum.y(), now.momentum.z()};
+  if (no_external_force(scene)) {
+    j["momentum_drift"] = (now.momentum - initial.momentum).norm();
+  } else {
+    j["momentum_drift"] = nullptr;  // gravity, the ground, obstacles or pins act on the bodies
+  }
+  j["threads"] = options.threads;
+  const std::string text = j.dump(2) + "\n";
+  io::write_file_atomically(folder / "summary.json", [&](std::ostream& out) { out << text; });
+  if (!options.quiet && exit_code == 0)
+    log().info("{} frames, {} steps, {} re-meshes in {:.1f} s; volume {:.6g} → {:.6g} m³; summary in {}", frame,
+               sim.steps(), sim.remeshes(), seconds_since(wall_start), initial.volume, now.volume,
+               (folder / "summary.json").string());
+  return exit_code;
+}
+
+}  // namespace goo::app

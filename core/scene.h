@@ -1,0 +1,80 @@
+#pragma once
+// A scene: what to simulate and how, as plain values (docs/scene-format.md).
+// io reads it from JSON (meshes loaded, every value checked); solvers build
+// a Simulation from it; app runs it.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/constraints.h"
+#include "core/material.h"
+#include "core/obstacles.h"
+#include "core/settings.h"
+#include "core/tet_mesh.h"
+#include "core/triangle_mesh.h"
+
+namespace goo {
+
+enum class IntegratorKind { newmark, backward_euler };
+
+/// Nodes inside an axis-aligned world box are held still (re-evaluated at
+/// every re-mesh: pinned nodes do not move, so the region stays theirs).
+struct PinnedRegion {
+  Eigen::AlignedBox3d box;
+};
+
+struct SceneObject {
+  std::string name;
+  /// Exactly one of the two: a closed surface meshed on the lattice (and
+  /// re-meshed), or a tetrahedral mesh simulated as it is (no re-meshing).
+  std::optional<TriangleMesh> surface;
+  std::optional<TetMesh> tet_mesh;
+  Material material;
+  double lattice_spacing = 0.0;  ///< h, m (surface objects)
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();          ///< m/s
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  ///< rad/s, about the centroid of the geometry
+  std::vector<PinnedRegion> pinned;
+};
+
+struct RemeshSettings {
+  bool enabled = true;
+  RemeshThresholds thresholds;
+  bool upkeep = true;  ///< split and collapse surface edges at each re-mesh
+  UpkeepSettings upkeep_settings;
+};
+
+struct OutputSettings {
+  std::string folder = "goo-out";
+  double fps = 24.0;
+  int frames = 72;          ///< frames after frame 0 (the initial state)
+  bool ply = true;          ///< frames/frame_NNNNN.ply (binary)
+  bool obj = false;         ///< frames/frame_NNNNN.obj
+  bool tet_mesh = false;    ///< frames/tets_NNNNN.vtu (the finite-element mesh)
+  bool hdf5 = true;         ///< run.h5 with the run.xdmf sidecar
+};
+
+/// When a run is declared numerically failed.
+struct SafetyLimits {
+  double max_speed = 1000.0;  ///< m/s: any node faster is an energy blow-up
+};
+
+struct Scene {
+  std::string source;       ///< the file it came from ("<built-in demo>" for the default)
+  std::string text;         ///< the scene's JSON text, as read (stored in checkpoints)
+  std::string base_folder;  ///< where relative paths in the scene resolve
+  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
+  IntegratorKind integrator = IntegratorKind::newmark;
+  NewmarkSettings newmark;               ///< gravity is overwritten by Scene::gravity
+  BackwardEulerSettings backward_euler;  ///< the same
+  std::optional<HalfSpace> ground;       ///< a floor under every object
+  std::vector<Obstacle> obstacles;
+  std::vector<SceneObject> objects;
+  RemeshSettings remesh;
+  OutputSettings output;
+  int checkpoint_every_frames = 24;  ///< 0: only when the run ends or is interrupted
+  SafetyLimits limits;
+};
+
+std::string_view to_string(IntegratorKind kind);
+
+}  // namespace goo

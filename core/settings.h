@@ -1,0 +1,61 @@
+#pragma once
+// The settings of the integrators, the re-mesh trigger and the surface
+// upkeep: plain values, in core so that a scene (io) can carry them and the
+// solvers and meshing read them.
+#include <Eigen/Core>
+
+#include "core/surface_tension.h"
+
+namespace goo {
+
+struct NewmarkSettings {
+  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  ///< m/s²
+  double cfl = 0.5;                                            ///< fraction of the elastic stability limit
+  double max_strain_per_step = 0.1;                            ///< bound on ‖Ḟ‖ Δt
+  double max_time_step = 1e-2;                                 ///< s
+  double cg_tolerance = 1e-12;                                 ///< relative residual of the damping solves
+  int cg_max_iterations = 1000;
+  /// Surface tension (when the material's σ > 0 and the body has a surface).
+  SurfaceTensionForm surface_tension_form = SurfaceTensionForm::area_gradient;
+  /// Umbrella smoothing of the surface per step: λ = smoothing × σ × Δt
+  /// (capped at ½), so the smoothing per unit time does not depend on Δt.
+  /// Units 1/(N/m · s); 0 turns it off.
+  double smoothing = 0.0;
+};
+
+/// How each Newton system is solved.
+enum class LinearSolver {
+  direct,      ///< CHOLMOD factorisation every iteration
+  lagged_pcg,  ///< conjugate gradients preconditioned with the last factor, refactored when CG needs too many iterations
+  /// direct below kLaggedPcgUnknowns unknowns, lagged_pcg above. Measured
+  /// here (docs/implicit.md): a refactorisation costs 64 solves at 32k
+  /// unknowns and 55 at 89k, so ≤ 25 preconditioned CG iterations are cheaper;
+  /// below ~10k unknowns a factorisation takes milliseconds and CG gains nothing.
+  automatic,
+};
+
+inline constexpr long kLaggedPcgUnknowns = 10000;
+
+struct BackwardEulerSettings {
+  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  ///< m/s²
+  double time_step = 1e-2;                                     ///< s, the step it tries first
+  double tolerance = 1e-8;    ///< ‖∇E‖∞ over free nodes, relative to the scene's force scale
+  int max_newton_iterations = 30;
+  int max_halvings = 8;  ///< a step that does not converge is retried at half Δt
+  LinearSolver linear_solver = LinearSolver::automatic;
+  int pcg_max_iterations = 25;  ///< lagged_pcg: more than this and the factor is renewed
+};
+
+struct RemeshThresholds {
+  double condition_growth = 3.0;  ///< κ(Ds) / κ(Dm) that triggers
+  double min_barycentric = -0.2;  ///< a surface vertex's coordinate that triggers
+};
+
+struct UpkeepSettings {
+  /// Thresholds as fractions of the lattice spacing h (scene parameters).
+  double split_length = 0.5;     ///< split edges longer than this × h
+  double collapse_length = 0.05; ///< collapse edges shorter than this × h
+  int max_passes = 16;
+};
+
+}  // namespace goo

@@ -1,0 +1,284 @@
+#include "io/checkpoint.h"
+
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.h"
+#include "io/detail/hdf5_handle.h"
+
+namespace goo::io {
+
+namespace {
+
+using detail::H5Handle;
+
+constexpr std::size_t kUserBlock = 512;
+constexpr const char* kMagic = "goo-checkpoint";
+
+/// FNV-1a, 64 bits, over a byte range.
+std::uint64_t fnv1a(const char* data, std::size_t size, std::uint64_t hash = 0xcbf29ce484222325ULL) {
+  for (std::size_t i = 0; i < size; ++i) {
+    hash ^= static_cast<unsigned char>(data[i]);
+    hash *= 0x100000001b3ULL;
+  }
+  return hash;
+}
+
+std::string read_all(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(fmt::format("{}: cannot open the checkpoint: {}", path.string(), std::strerror(errno)));
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void check(herr_t status, const std::filesystem::path& path, std::string_view what) {
+  if (status < 0) throw Error(fmt::format("{}: HDF5 failed to {}", path.string(), what));
+}
+
+hid_t check(hid_t id, const std::filesystem::path& path, std::string_view what) {
+  if (id < 0) throw Error(fmt::format("{}: HDF5 failed to {}", path.string(), what));
+  return id;
+}
+
+/// Creates the groups of "a/b/c" (all but the last part) under `root`.
+void make_groups(hid_t root, const std::string& name, const std::filesystem::path& path) {
+  for (std::size_t slash = name.find('/'); slash != std::string::npos; slash = name.find('/', slash + 1)) {
+    const std::string group = name.substr(0, slash);
+    if (H5Lexists(root, group.c_str(), H5P_DEFAULT) > 0) continue;
+    H5Handle g(check(H5Gcreate2(root, group.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path, "create " + group),
+               H5Gclose);
+  }
+}
+
+void set_int_attribute(hid_t object, const char* name, long long value, const std::filesystem::path& path) {
+  H5Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  H5Handle attr(check(H5Acreate2(object, name, H5T_STD_I64LE, space, H5P_DEFAULT, H5P_DEFAULT), path, name), H5Aclose);
+  check(H5Awrite(attr, H5T_NATIVE_LLONG, &value), path, name);
+}
+
+void set_string_attribute(hid_t object, const char* name, const std::string& value, const std::filesystem::path& path) {
+  H5Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(type, std::max<std::size_t>(value.size(), 1));
+  H5Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  H5Handle attr(check(H5Acreate2(object, name, type, space, H5P_DEFAULT, H5P_DEFAULT), path, name), H5Aclose);
+  check(H5Awrite(attr, type, value.empty() ? "" : value.data()), path, name);
+}
+
+/// A chunked, Fletcher32-checksummed dataset creation list for `dims`.
+H5Handle checksummed(const std::vector<hsize_t>& dims) {
+  H5Handle plist(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
+  std::vector<hsize_t> chunk(dims.size());
+  // Chunks of about 64k values along the first axis, whole along the others.
+  hsize_t row = 1;
+  for (std::size_t k = 1; k < dims.size(); ++k) row *= std::max<hsize_t>(dims[k], 1);
+  chunk[0] = std::clamp<hsize_t>(65536 / row, 1, std::max<hsize_t>(dims[0], 1));
+  for (std::size_t k = 1; k < dims.size(); ++k) chunk[k] = std::max<hsize_t>(dims[k], 1);
+  H5Pset_chunk(plist, static_cast<int>(dims.size()), chunk.data());
+  H5Pset_fletcher32(plist);
+  return plist;
+}
+
+void write_dataset(hid_t root, const std::string& name, const StateArray& a, const std::filesystem::path& path) {
+  make_groups(root, name, path);
+  std::vector<hsize_t> dims(a.shape.begin(), a.shape.end());
+  const bool scalar = dims.empty();
+  if (scalar) dims = {1};
+  std::vector<hsize_t> max(dims.size(), H5S_UNLIMITED);
+  H5Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), max.data()), H5Sclose);
+  const H5Handle plist = checksummed(dims);
+  H5Handle set(check(H5Dcreate2(root, name.c_str(), a.integer ? H5T_STD_I64LE : H5T_IEEE_F64LE, space, H5P_DEFAULT,
+                                plist, H5P_DEFAULT),
+                     path, "create " + name),
+               H5Dclose);
+  if (a.size() > 0) {
+    check(a.integer ? H5Dwrite(set, H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.integers.data())
+                    : H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.reals.data()),
+          path, "write " + name);
+  }
+  if (scalar) set_int_attribute(set, "scalar", 1, path);
+}
+
+void write_string(hid_t root, const std::string& name, const std::string& value, const std::filesystem::path& path) {
+  make_groups(root, name, path);
+  H5Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(type, std::max<std::size_t>(value.size(), 1));
+  H5Tset_strpad(type, H5T_STR_NULLPAD);
+  const std::vector<hsize_t> dims{1};
+  std::vector<hsize_t> max{H5S_UNLIMITED};
+  H5Handle space(H5Screate_simple(1, dims.data(), max.data()), H5Sclose);
+  const H5Handle plist = checksummed(dims);
+  H5Handle set(check(H5Dcreate2(root, name.c_str(), type, space, H5P_DEFAULT, plist, H5P_DEFAULT), path,
+                     "create " + name),
+               H5Dclose);
+  std::string padded = value;
+  padded.resize(std::max<std::size_t>(value.size(), 1), '\0');
+  check(H5Dwrite(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, padded.data()), path, "write " + name);
+}
+
+void write_hdf5(const std::filesystem::path& file, const std::filesystem::path& shown, const StateRecord& record) {
+  H5Handle fcpl(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
+  check(H5Pset_userblock(fcpl, kUserBlock), shown, "reserve the user block");
+  H5Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  // 1.10 formats: checksummed superblock and object headers.
+  check(H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_V110), shown, "select the file format");
+  H5Handle f(check(H5Fcreate(file.c_str(), H5F_ACC_TRUNC, fcpl, fapl), shown, "create the file"), H5Fclose);
+  set_string_attribute(f, "format", kMagic, shown);
+  set_int_attribute(f, "format_version", kCheckpointFormatVersion, shown);
+  H5Handle state(check(H5Gcreate2(f, "state", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), shown, "create /state"),
+                 H5Gclose);
+  for (const auto& [name, array] : record.arrays()) write_dataset(state, name, array, shown);
+  for (const auto& [name, value] : record.strings()) write_string(state, name, value, shown);
+  check(H5Fflush(f, H5F_SCOPE_GLOBAL), shown, "flush");
+}
+
+struct Visit {
+  StateRecord* record;
+  const std::filesystem::path* path;
+  std::string error;
+};
+
+herr_t read_object(hid_t root, const char* name, const H5L_info_t* /*info*/, void* data) {
+  auto& visit = *static_cast<Visit*>(data);
+  const std::filesystem::path& path = *visit.path;
+  try {
+    H5Handle object(H5Oopen(root, name, H5P_DEFAULT), H5Oclose);
+    if (!object.valid()) throw Error(fmt::format("{}: cannot open /state/{}", path.string(), name));
+    if (H5Iget_type(object) != H5I_DATASET) return 0;
+    const hid_t set = object.get();
+    H5Handle type(H5Dget_type(set), H5Tclose);
+    H5Handle space(H5Dget_space(set), H5Sclose);
+    const int rank = H5Sget_simple_extent_ndims(space);
+    if (rank < 1 || rank > 8) throw Error(fmt::format("{}: /state/{} has rank {}", path.string(), name, rank));
+    std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+    H5Sget_simple_extent_dims(space, dims.data(), nullptr);
+    const H5T_class_t cls = H5Tget_class(type);
+    const std::string what = fmt::format("read /state/{} (a checksum failed, or the file is damaged)", name);
+    if (cls == H5T_STRING) {
+      std::string value(H5Tget_size(type), '\0');
+      check(H5Dread(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, value.data()), path, what);
+      value.resize(std::strlen(value.c_str()));
+      visit.record->put_string(name, value);
+      return 0;
+    }
+    StateArray a;
+    a.integer = cls == H5T_INTEGER;
+    if (!a.integer && cls != H5T_FLOAT) throw Error(fmt::format("{}: /state/{} has an unknown type", path.string(), name));
+    a.shape.assign(dims.begin(), dims.end());
+    if (H5Aexists(set, "scalar") > 0) {
+      if (a.size() != 1) throw Error(fmt::format("{}: /state/{} is a scalar of {} values", path.string(), name, a.size()));
+      a.shape.clear();
+    }
+    if (a.integer) {
+      a.integers.resize(a.size());
+      if (!a.integers.empty())
+        check(H5Dread(set, H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.integers.data()), path, what);
+    } else {
+      a.reals.resize(a.size());
+      if (!a.reals.empty())
+        check(H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.reals.data()), path, what);
+    }
+    visit.record->put_array(name, std::move(a));
+    return 0;
+  } catch (const std::exception& e) {
+    visit.error = e.what();
+    return -1;
+  }
+}
+
+}  // namespace
+
+void write_checkpoint(const std::filesystem::path& path, const StateRecord& record,
+                      const std::function<void()>& before_rename) {
+  detail::SilenceHdf5Errors quiet;
+  const std::filesystem::path folder = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
+  std::error_code ec;
+  if (!std::filesystem::is_directory(folder, ec))
+    throw Error(fmt::format("{}: cannot write: folder '{}' does not exist", path.string(), folder.string()));
+  const std::filesystem::path temporary =
+      folder / fmt::format(".{}.tmp-{}", path.filename().string(), static_cast<long>(::getpid()));
+  try {
+    write_hdf5(temporary, path, record);
+    // The user block: magic, version, length and the checksum of the rest.
+    std::string bytes = read_all(temporary);
+    if (bytes.size() < kUserBlock) throw Error(fmt::format("{}: HDF5 wrote a short file", path.string()));
+    const std::uint64_t hash = fnv1a(bytes.data() + kUserBlock, bytes.size() - kUserBlock);
+    std::string header = fmt::format("{}\nformat_version {}\nlength {}\nfnv1a64 {:016x}\n", kMagic,
+                                     kCheckpointFormatVersion, bytes.size(), hash);
+    header.resize(kUserBlock, '\0');
+    const int fd = ::open(temporary.c_str(), O_WRONLY);
+    if (fd < 0) throw Error(fmt::format("{}: cannot reopen: {}", path.string(), std::strerror(errno)));
+    const bool ok = ::pwrite(fd, header.data(), kUserBlock, 0) == static_cast<ssize_t>(kUserBlock) && ::fsync(fd) == 0;
+    ::close(fd);
+    if (!ok) throw Error(fmt::format("{}: writing failed: {}", path.string(), std::strerror(errno)));
+    if (before_rename) before_rename();
+    std::filesystem::rename(temporary, path, ec);
+    if (ec) throw Error(fmt::format("{}: cannot replace it: {}", path.string(), ec.message()));
+    const int dir = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY);
+    if (dir >= 0) {
+      ::fsync(dir);
+      ::close(dir);
+    }
+  } catch (...) {
+    std::filesystem::remove(temporary, ec);
+    throw;
+  }
+}
+
+StateRecord read_checkpoint(const std::filesystem::path& path) {
+  detail::SilenceHdf5Errors quiet;
+  const std::string bytes = read_all(path);
+  const std::string name = path.string();
+  if (bytes.size() < kUserBlock || bytes.compare(0, std::strlen(kMagic), kMagic) != 0)
+    throw Error(fmt::format("{}: not a goo checkpoint (no '{}' header{})", name, kMagic,
+                            bytes.size() < kUserBlock ? "; the file is shorter than one" : ""));
+  std::istringstream header(bytes.substr(0, kUserBlock));
+  std::string magic, key;
+  int version = 0;
+  std::size_t length = 0;
+  std::string hash_text;
+  header >> magic >> key >> version;
+  if (key != "format_version") throw Error(fmt::format("{}: damaged checkpoint header", name));
+  if (version != kCheckpointFormatVersion)
+    throw Error(fmt::format("{}: checkpoint format version {}; this goo reads version {}", name, version,
+                            kCheckpointFormatVersion));
+  header >> key >> length;
+  if (key != "length") throw Error(fmt::format("{}: damaged checkpoint header", name));
+  header >> key >> hash_text;
+  if (key != "fnv1a64") throw Error(fmt::format("{}: damaged checkpoint header", name));
+  if (bytes.size() != length)
+    throw Error(fmt::format("{}: truncated or extended checkpoint ({} bytes, the header says {})", name, bytes.size(),
+                            length));
+  const std::string actual = fmt::format("{:016x}", fnv1a(bytes.data() + kUserBlock, bytes.size() - kUserBlock));
+  if (actual != hash_text)
+    throw Error(fmt::format("{}: corrupt checkpoint: checksum {} does not match the recorded {}", name, actual,
+                            hash_text));
+
+  H5Handle f(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!f.valid()) throw Error(fmt::format("{}: HDF5 cannot open the checkpoint", name));
+  long long stored_version = 0;
+  {
+    H5Handle attr(H5Aopen(f, "format_version", H5P_DEFAULT), H5Aclose);
+    if (!attr.valid() || H5Aread(attr, H5T_NATIVE_LLONG, &stored_version) < 0 ||
+        stored_version != kCheckpointFormatVersion)
+      throw Error(fmt::format("{}: checkpoint format_version attribute is {}; this goo reads version {}", name,
+                              stored_version, kCheckpointFormatVersion));
+  }
+  H5Handle state(H5Gopen2(f, "state", H5P_DEFAULT), H5Gclose);
+  if (!state.valid()) throw Error(fmt::format("{}: the checkpoint has no /state group", name));
+  StateRecord record;
+  Visit visit{&record, &path, {}};
+  if (H5Lvisit(state, H5_INDEX_NAME, H5_ITER_INC, read_object, &visit) < 0)
+    throw Error(visit.error.empty() ? fmt::format("{}: cannot read the checkpoint's /state", name) : visit.error);
+  return record;
+}
+
+}  // namespace goo::io

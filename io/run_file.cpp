@@ -1,0 +1,175 @@
+#include "io/run_file.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <bit>
+#include <cstring>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "io/atomic_file.h"
+#include "io/detail/hdf5_handle.h"
+
+namespace goo::io {
+
+namespace {
+
+using detail::H5Handle;
+
+std::string frame_group(int frame) { return fmt::format("/frames/{:05d}", frame); }
+
+void check(herr_t status, const std::filesystem::path& path, std::string_view what) {
+  if (status < 0) throw Error(fmt::format("{}: HDF5 failed to {}", path.string(), what));
+}
+
+template <class Matrix>
+void write_matrix(hid_t group, const char* name, const Matrix& m, hid_t file_type, hid_t memory_type,
+                  const std::filesystem::path& path) {
+  const hsize_t dims[2] = {static_cast<hsize_t>(m.rows()), static_cast<hsize_t>(m.cols())};
+  H5Handle space(H5Screate_simple(2, dims, nullptr), H5Sclose);
+  H5Handle set(H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
+  if (!set.valid()) throw Error(fmt::format("{}: HDF5 failed to create {}", path.string(), name));
+  if (m.size() > 0) check(H5Dwrite(set, memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, m.data()), path, name);
+}
+
+long long rows_of(hid_t group, const char* name) {
+  if (H5Lexists(group, name, H5P_DEFAULT) <= 0) return 0;
+  H5Handle set(H5Dopen2(group, name, H5P_DEFAULT), H5Dclose);
+  H5Handle space(H5Dget_space(set), H5Sclose);
+  hsize_t dims[2] = {0, 0};
+  H5Sget_simple_extent_dims(space, dims, nullptr);
+  return static_cast<long long>(dims[0]);
+}
+
+}  // namespace
+
+RunFile::RunFile(const std::filesystem::path& folder, int first_frame) : folder_(folder) {
+  detail::SilenceHdf5Errors quiet;
+  const std::filesystem::path path = folder / "run.h5";
+  std::error_code ec;
+  hid_t f = -1;
+  if (first_frame > 0 && std::filesystem::exists(path, ec)) {
+    f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    if (f < 0) log().warn("{}: cannot open the run file of the earlier run; starting a new one", path.string());
+  }
+  if (f >= 0) {
+    // Keep the frames before first_frame, drop the rest.
+    for (int frame = 0;; ++frame) {
+      const std::string name = frame_group(frame);
+      if (H5Lexists(f, "/frames", H5P_DEFAULT) <= 0 || H5Lexists(f, name.c_str(), H5P_DEFAULT) <= 0) break;
+      if (frame >= first_frame) {
+        H5Ldelete(f, name.c_str(), H5P_DEFAULT);
+        continue;
+      }
+      H5Handle g(H5Gopen2(f, name.c_str(), H5P_DEFAULT), H5Gclose);
+      double time = 0.0;
+      H5Handle attr(H5Aopen(g, "time", H5P_DEFAULT), H5Aclose);
+      if (attr.valid()) H5Aread(attr, H5T_NATIVE_DOUBLE, &time);
+      frames_.push_back({frame, time, rows_of(g, "surface_vertices"), rows_of(g, "surface_triangles"),
+                         rows_of(g, "tet_positions"), rows_of(g, "tet_elements")});
+    }
+  } else {
+    f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    if (f < 0) throw Error(fmt::format("{}: cannot create the run file", path.string()));
+  }
+  file_ = f;
+  if (H5Lexists(f, "/frames", H5P_DEFAULT) <= 0) {
+    H5Handle g(H5Gcreate2(f, "/frames", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+  }
+}
+
+RunFile::~RunFile() {
+  if (file_ >= 0) H5Fclose(file_);
+}
+
+void RunFile::write_frame(int frame, double time, const TriangleMesh& surface, const TetMesh* tets) {
+  detail::SilenceHdf5Errors quiet;
+  const std::filesystem::path path = folder_ / "run.h5";
+  const std::string name = frame_group(frame);
+  if (H5Lexists(file_, name.c_str(), H5P_DEFAULT) > 0) H5Ldelete(file_, name.c_str(), H5P_DEFAULT);
+  H5Handle g(H5Gcreate2(file_, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+  if (!g.valid()) throw Error(fmt::format("{}: HDF5 failed to create {}", path.string(), name));
+  {
+    H5Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+    H5Handle attr(H5Acreate2(g, "time", H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+    check(H5Awrite(attr, H5T_NATIVE_DOUBLE, &time), path, "write the frame time");
+  }
+  write_matrix(g, "surface_vertices", surface.vertices, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, path);
+  write_matrix(g, "surface_triangles", surface.triangles, H5T_STD_I32LE, H5T_NATIVE_INT32, path);
+  Frame record{frame, time, surface.vertices.rows(), surface.triangles.rows(), 0, 0};
+  if (tets) {
+    write_matrix(g, "tet_positions", tets->positions, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, path);
+    write_matrix(g, "tet_elements", tets->tets, H5T_STD_I32LE, H5T_NATIVE_INT32, path);
+    record.nodes = tets->positions.rows();
+    record.tets = tets->tets.rows();
+  }
+  check(H5Fflush(file_, H5F_SCOPE_GLOBAL), path, "flush");
+  std::erase_if(frames_, [&](const Frame& f) { return f.frame >= frame; });
+  frames_.push_back(record);
+  write_xdmf();
+}
+
+void RunFile::write_xdmf() const {
+  std::ostringstream x;
+  x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
+       "  <Grid Name=\"run\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (const Frame& f : frames_) {
+    const std::string g = frame_group(f.frame);
+    x << fmt::format("   <Grid Name=\"frame {:05d}\" GridType=\"Collection\" CollectionType=\"Spatial\">\n", f.frame);
+    x << fmt::format("    <Time Value=\"{:.17g}\"/>\n", f.time);
+    x << "    <Grid Name=\"surface\" GridType=\"Uniform\">\n";
+    x << fmt::format("     <Topology TopologyType=\"Triangle\" NumberOfElements=\"{}\">\n", f.triangles);
+    x << fmt::format("      <DataItem Dimensions=\"{} 3\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">run.h5:{}"
+                     "/surface_triangles</DataItem>\n     </Topology>\n",
+                     f.triangles, g);
+    x << "     <Geometry GeometryType=\"XYZ\">\n";
+    x << fmt::format("      <DataItem Dimensions=\"{} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">run.h5:{}"
+                     "/surface_vertices</DataItem>\n     </Geometry>\n    </Grid>\n",
+                     f.vertices, g);
+    if (f.tets > 0) {
+      x << "    <Grid Name=\"tets\" GridType=\"Uniform\">\n";
+      x << fmt::format("     <Topology TopologyType=\"Tetrahedron\" NumberOfElements=\"{}\">\n", f.tets);
+      x << fmt::format("      <DataItem Dimensions=\"{} 4\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">run.h5:{}"
+                       "/tet_elements</DataItem>\n     </Topology>\n",
+                       f.tets, g);
+      x << "     <Geometry GeometryType=\"XYZ\">\n";
+      x << fmt::format("      <DataItem Dimensions=\"{} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">run.h5:"
+                       "{}/tet_positions</DataItem>\n     </Geometry>\n    </Grid>\n",
+                       f.nodes, g);
+    }
+    x << "   </Grid>\n";
+  }
+  x << "  </Grid>\n </Domain>\n</Xdmf>\n";
+  const std::string text = x.str();
+  write_file_atomically(folder_ / "run.xdmf", [&](std::ostream& out) { out << text; });
+}
+
+void write_tet_mesh_vtk(const std::filesystem::path& path, const TetMesh& mesh) {
+  // Legacy VTK binary is big-endian.
+  auto be = [](auto value) {
+    using T = decltype(value);
+    std::array<char, sizeof(T)> b{};
+    std::memcpy(b.data(), &value, sizeof(T));
+    if constexpr (std::endian::native == std::endian::little) std::reverse(b.begin(), b.end());
+    return b;
+  };
+  write_file_atomically(path, [&](std::ostream& out) {
+    const auto nn = mesh.positions.rows(), ne = mesh.tets.rows();
+    out << "# vtk DataFile Version 3.0\ngoo tetrahedral mesh\nBINARY\nDATASET UNSTRUCTURED_GRID\n";
+    out << "POINTS " << nn << " double\n";
+    for (Eigen::Index i = 0; i < nn; ++i)
+      for (int k = 0; k < 3; ++k) out.write(be(mesh.positions(i, k)).data(), sizeof(double));
+    out << "\nCELLS " << ne << " " << 5 * ne << "\n";
+    for (Eigen::Index e = 0; e < ne; ++e) {
+      out.write(be(std::int32_t{4}).data(), 4);
+      for (int k = 0; k < 4; ++k) out.write(be(std::int32_t{mesh.tets(e, k)}).data(), 4);
+    }
+    out << "\nCELL_TYPES " << ne << "\n";
+    for (Eigen::Index e = 0; e < ne; ++e) out.write(be(std::int32_t{10}).data(), 4);
+    out << "\n";
+  });
+}
+
+}  // namespace goo::io

@@ -1,0 +1,576 @@
+#include "io/scene_io.h"
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/primitives.h"
+#include "io/surface_mesh_io.h"
+#include "io/tet_mesh_io.h"
+
+namespace goo::io {
+
+namespace {
+
+using json = nlohmann::json;
+
+const char* type_name(const json& j) {
+  switch (j.type()) {
+    case json::value_t::null:
+      return "null";
+    case json::value_t::boolean:
+      return "a boolean";
+    case json::value_t::string:
+      return "a string";
+    case json::value_t::array:
+      return "an array";
+    case json::value_t::object:
+      return "an object";
+    case json::value_t::number_float:
+    case json::value_t::number_integer:
+    case json::value_t::number_unsigned:
+      return "a number";
+    default:
+      return "something else";
+  }
+}
+
+/// One JSON value at a path. Objects remember which keys were read, so that
+/// finish() refuses the rest (a misspelt key must not be silently ignored).
+class Node {
+ public:
+  Node(const json& value, std::string path, const std::string& source)
+      : value_(value), path_(std::move(path)), source_(source) {}
+
+  [[noreturn]] void fail(std::string_view message) const {
+    throw Error(fmt::format("{}: {} {}", source_, path_.empty() ? "/" : path_, message));
+  }
+  [[nodiscard]] const std::string& path() const { return path_; }
+  [[nodiscard]] const json& value() const { return value_; }
+
+  void expect_object() const {
+    if (!value_.is_object()) fail(fmt::format("must be an object, got {}", type_name(value_)));
+  }
+  [[nodiscard]] bool has(const std::string& key) const { return value_.contains(key); }
+  std::optional<Node> get(const std::string& key) {
+    expect_object();
+    used_.insert(key);
+    const auto it = value_.find(key);
+    if (it == value_.end()) return std::nullopt;
+    return Node(*it, path_ + "/" + key, source_);
+  }
+  Node at(const std::string& key) {
+    auto node = get(key);
+    if (!node) fail(fmt::format("needs the key '{}'", key));
+    return *node;
+  }
+  /// Refuses keys that were never asked for.
+  void finish() const {
+    std::vector<std::string> unknown;
+    for (const auto& [key, _] : value_.items())
+      if (!used_.contains(key)) unknown.push_back(key);
+    if (unknown.empty()) return;
+    Node(value_[unknown.front()], path_ + "/" + unknown.front(), source_)
+        .fail(fmt::format("is not a known key here (known: {})", fmt::join(used_, ", ")));
+  }
+
+  [[nodiscard]] double number() const {
+    if (!value_.is_number()) fail(fmt::format("must be a number, got {}", type_name(value_)));
+    const double v = value_.get<double>();
+    if (!std::isfinite(v)) fail("must be finite");
+    return v;
+  }
+  [[nodiscard]] double positive() const {
+    const double v = number();
+    if (!(v > 0.0)) fail(fmt::format("must be positive, got {}", v));
+    return v;
+  }
+  [[nodiscard]] double non_negative() const {
+    const double v = number();
+    if (!(v >= 0.0)) fail(fmt::format("must be non-negative, got {}", v));
+    return v;
+  }
+  [[nodiscard]] int integer(int low, int high) const {
+    if (!value_.is_number_integer()) fail(fmt::format("must be an integer, got {}", type_name(value_)));
+    const auto v = value_.get<long long>();
+    if (v < low || v > high) fail(fmt::format("must be an integer in [{}, {}], got {}", low, high, v));
+    return static_cast<int>(v);
+  }
+  [[nodiscard]] bool boolean() const {
+    if (!value_.is_boolean()) fail(fmt::format("must be true or false, got {}", type_name(value_)));
+    return value_.get<bool>();
+  }
+  [[nodiscard]] std::string string() const {
+    if (!value_.is_string()) fail(fmt::format("must be a string, got {}", type_name(value_)));
+    return value_.get<std::string>();
+  }
+  [[nodiscard]] std::string choice(std::initializer_list<std::string_view> options) const {
+    const std::string s = string();
+    for (const auto o : options)
+      if (s == o) return s;
+    fail(fmt::format("must be one of {}, got '{}'", fmt::join(options, ", "), s));
+  }
+  [[nodiscard]] Eigen::Vector3d vec3() const {
+    if (!value_.is_array() || value_.size() != 3) fail(fmt::format("must be an array of 3 numbers"));
+    Eigen::Vector3d v;
+    for (std::size_t k = 0; k < 3; ++k) v[static_cast<Eigen::Index>(k)] = element(k).number();
+    return v;
+  }
+  [[nodiscard]] std::size_t size() const {
+    if (!value_.is_array()) fail(fmt::format("must be an array, got {}", type_name(value_)));
+    return value_.size();
+  }
+  [[nodiscard]] Node element(std::size_t i) const {
+    return Node(value_[i], fmt::format("{}/{}", path_, i), source_);
+  }
+
+ private:
+  const json& value_;
+  std::string path_;
+  const std::string& source_;
+  std::set<std::string> used_;
+};
+
+/// Reads an optional key into `out` with `read`.
+template <class T, class Read>
+void optional(Node& parent, const std::string& key, T& out, Read read) {
+  if (auto n = parent.get(key)) out = read(*n);
+}
+
+constexpr double kPi = 3.14159265358979323846;
+
+/// x' = translate + R (scale ∘ x), R = Rz Ry Rx of rotate_degrees.
+struct Transform {
+  Eigen::Vector3d translate = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d scale = Eigen::Vector3d::Ones();
+
+  [[nodiscard]] Eigen::Vector3d apply(const Eigen::Vector3d& x) const {
+    return translate + rotation * scale.cwiseProduct(x);
+  }
+};
+
+Eigen::Quaterniond rotation_of(const Node& n) {
+  const Eigen::Vector3d deg = n.vec3();
+  const Eigen::Vector3d r = deg * kPi / 180.0;
+  return Eigen::Quaterniond(Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) *
+                            Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
+                            Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX()));
+}
+
+Transform read_transform(Node n, bool allow_scale) {
+  Transform t;
+  optional(n, "translate", t.translate, [](const Node& v) { return v.vec3(); });
+  optional(n, "rotate_degrees", t.rotation, rotation_of);
+  if (allow_scale) {
+    if (auto s = n.get("scale")) {
+      if (s->value().is_array()) {
+        t.scale = s->vec3();
+        if (!(t.scale.minCoeff() > 0.0)) s->fail("must be positive in every axis");
+      } else {
+        t.scale.setConstant(s->positive());
+      }
+    }
+  }
+  n.finish();
+  return t;
+}
+
+std::filesystem::path resolve(const Node& n, const std::filesystem::path& base) {
+  const std::filesystem::path p = n.string();
+  const std::filesystem::path full = p.is_absolute() ? p : base / p;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(full, ec)) n.fail(fmt::format("names no readable file ('{}')", full.string()));
+  return full;
+}
+
+TriangleMesh read_primitive(Node n) {
+  const std::string type = n.at("type").choice({"box", "sphere", "cylinder", "torus"});
+  TriangleMesh mesh;
+  if (type == "box") {
+    const Node size = n.at("size");
+    const Eigen::Vector3d s = size.vec3();
+    if (!(s.minCoeff() > 0.0)) size.fail("must be positive in every axis");
+    int sub = 8;
+    optional(n, "subdivisions", sub, [](const Node& v) { return v.integer(1, 1000); });
+    mesh = make_box(s, sub);
+  } else if (type == "sphere") {
+    const double r = n.at("radius").positive();
+    int seg = 32;
+    optional(n, "segments", seg, [](const Node& v) { return v.integer(3, 10000); });
+    mesh = make_sphere(r, seg);
+  } else if (type == "cylinder") {
+    const double r = n.at("radius").positive();
+    const double height = n.at("height").positive();
+    int seg = 32;
+    optional(n, "segments", seg, [](const Node& v) { return v.integer(3, 10000); });
+    mesh = make_cylinder(r, height, seg);
+  } else {
+    const double major = n.at("major_radius").positive();
+    const Node minor_node = n.at("minor_radius");
+    const double minor = minor_node.positive();
+    if (!(minor < major)) minor_node.fail(fmt::format("must be below major_radius ({}), got {}", major, minor));
+    int a = 48, b = 16;
+    optional(n, "major_segments", a, [](const Node& v) { return v.integer(3, 10000); });
+    optional(n, "minor_segments", b, [](const Node& v) { return v.integer(3, 10000); });
+    mesh = make_torus(major, minor, a, b);
+  }
+  n.finish();
+  return mesh;
+}
+
+Material read_material(Node n) {
+  if (n.value().is_string()) {
+    try {
+      return material_preset(n.string());
+    } catch (const Error& e) {
+      n.fail(e.what());
+    }
+  }
+  n.expect_object();
+  Material m;
+  if (auto p = n.get("preset")) {
+    try {
+      m = material_preset(p->string());
+    } catch (const Error& e) {
+      p->fail(e.what());
+    }
+  }
+  optional(n, "density", m.density, [](const Node& v) { return v.positive(); });
+  optional(n, "youngs_modulus", m.youngs_modulus, [](const Node& v) { return v.positive(); });
+  optional(n, "poisson_ratio", m.poisson_ratio, [](const Node& v) {
+    const double x = v.number();
+    if (!(x >= 0.0 && x < 0.5)) v.fail(fmt::format("must be in [0, 0.5), got {}", x));
+    return x;
+  });
+  optional(n, "viscosity", m.viscosity, [](const Node& v) { return v.non_negative(); });
+  optional(n, "yield_stress", m.yield_stress, [](const Node& v) {
+    if (v.value().is_string() && v.value() == "infinity") return std::numeric_limits<double>::infinity();
+    if (v.value().is_string()) v.fail("must be a number or \"infinity\"");
+    return v.non_negative();
+  });
+  optional(n, "flow_rate", m.flow_rate, [](const Node& v) { return v.non_negative(); });
+  optional(n, "hardening", m.hardening, [](const Node& v) { return v.non_negative(); });
+  optional(n, "min_mass_fraction", m.min_mass_fraction, [](const Node& v) {
+    const double x = v.number();
+    if (!(x >= 0.0 && x <= 1.0)) v.fail(fmt::format("must be in [0, 1], got {}", x));
+    return x;
+  });
+  optional(n, "surface_tension", m.surface_tension, [](const Node& v) { return v.non_negative(); });
+  optional(n, "model", m.model, [](const Node& v) {
+    return elastic_model_from_string(v.choice({"neo_hookean", "fixed_corotated", "stable_neo_hookean"}));
+  });
+  n.finish();
+  validate(m, n.path(), '/');
+  return m;
+}
+
+SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& base) {
+  SceneObject o;
+  o.name = fmt::format("object{}", index);
+  optional(n, "name", o.name, [](const Node& v) { return v.string(); });
+  const bool has_mesh = n.has("mesh"), has_primitive = n.has("primitive"), has_tets = n.has("tet_mesh");
+  if (int(has_mesh) + int(has_primitive) + int(has_tets) != 1)
+    n.fail("needs exactly one of 'mesh' (a surface mesh file), 'primitive' or 'tet_mesh' (a tetrahedral mesh file)");
+  Transform transform;
+  if (auto t = n.get("transform")) transform = read_transform(*t, true);
+  if (has_mesh) {
+    const Node m = n.at("mesh");
+    const auto path = resolve(m, base);
+    o.surface = read_surface_mesh(path);  // names the file on failure
+  } else if (has_primitive) {
+    o.surface = read_primitive(n.at("primitive"));
+  } else {
+    const Node m = n.at("tet_mesh");
+    o.tet_mesh = read_tet_mesh(resolve(m, base));
+  }
+  Points& x = o.surface ? o.surface->vertices : o.tet_mesh->positions;
+  for (Eigen::Index i = 0; i < x.rows(); ++i) x.row(i) = transform.apply(x.row(i).transpose()).transpose();
+  if (transform.scale.prod() < 0.0) {
+    // Never reached: scales are positive. Kept out of the way of orientation.
+  }
+  o.material = read_material(n.at("material"));
+  if (o.surface) {
+    o.lattice_spacing = n.at("lattice_spacing").positive();
+    const Eigen::Vector3d extent = x.colwise().maxCoeff() - x.colwise().minCoeff();
+    if (o.lattice_spacing > extent.maxCoeff())
+      n.at("lattice_spacing")
+          .fail(fmt::format("is larger than the object itself ({:.4g} m across)", extent.maxCoeff()));
+    if (extent.maxCoeff() / o.lattice_spacing > 2000.0)
+      n.at("lattice_spacing").fail("gives more than 2000 lattice cells across the object");
+  } else if (n.has("lattice_spacing")) {
+    n.at("lattice_spacing").fail("applies to surface objects only (a tet_mesh is simulated as it is)");
+  }
+  optional(n, "velocity", o.velocity, [](const Node& v) { return v.vec3(); });
+  optional(n, "angular_velocity", o.angular_velocity, [](const Node& v) { return v.vec3(); });
+  if (auto p = n.get("pinned")) {
+    for (std::size_t i = 0; i < p->size(); ++i) {
+      Node region = p->element(i);
+      Node box = region.at("box");
+      const Eigen::Vector3d lo = box.at("min").vec3(), hi = box.at("max").vec3();
+      if (!(lo.array() <= hi.array()).all()) box.fail("needs min ≤ max in every axis");
+      box.finish();
+      region.finish();
+      o.pinned.push_back(PinnedRegion{Eigen::AlignedBox3d(lo, hi)});
+    }
+  }
+  n.finish();
+  return o;
+}
+
+RigidMotion::Key read_key(Node n) {
+  RigidMotion::Key key;
+  key.time = n.at("time").number();
+  optional(n, "translate", key.translation, [](const Node& v) { return v.vec3(); });
+  optional(n, "rotate_degrees", key.rotation, rotation_of);
+  n.finish();
+  return key;
+}
+
+Obstacle read_obstacle(Node n, std::size_t index, const std::filesystem::path& base) {
+  Obstacle o;
+  o.name = fmt::format("obstacle{}", index);
+  optional(n, "name", o.name, [](const Node& v) { return v.string(); });
+  Node shape = n.at("shape");
+  const std::string type = shape.at("type").choice({"half_space", "box", "sphere", "cylinder", "mesh"});
+  if (type == "half_space") {
+    const Node normal = shape.at("normal");
+    const Eigen::Vector3d nv = normal.vec3();
+    if (!(nv.norm() > 0.0)) normal.fail("must not be zero");
+    double offset = 0.0;
+    optional(shape, "offset", offset, [](const Node& v) { return v.number(); });
+    o.shape = make_half_space(nv.normalized(), offset);
+  } else if (type == "box") {
+    const Node size = shape.at("size");
+    const Eigen::Vector3d s = size.vec3();
+    if (!(s.minCoeff() > 0.0)) size.fail("must be positive in every axis");
+    o.shape = make_box_shape(s / 2.0);
+  } else if (type == "sphere") {
+    o.shape = make_sphere_shape(shape.at("radius").positive());
+  } else if (type == "cylinder") {
+    const double r = shape.at("radius").positive();
+    o.shape = make_cylinder_shape(r, shape.at("height").positive() / 2.0);
+  } else {
+    const auto path = resolve(shape.at("path"), base);
+    TriangleMesh mesh = read_surface_mesh(path);
+    double scale = 1.0;
+    optional(shape, "scale", scale, [](const Node& v) { return v.positive(); });
+    mesh.vertices *= scale;
+    o.shape = make_mesh_shape(mesh, path.string());
+  }
+  shape.finish();
+  optional(n, "friction", o.friction, [](const Node& v) { return v.non_negative(); });
+  const bool has_motion = n.has("motion");
+  if (has_motion && n.has("transform")) n.at("transform").fail("cannot be given with 'motion' (its keys place the obstacle)");
+  if (auto t = n.get("transform")) {
+    const Transform tr = read_transform(*t, false);
+    o.motion = RigidMotion({RigidMotion::Key{0.0, tr.translate, tr.rotation}});
+  }
+  if (auto m = n.get("motion")) {
+    std::vector<RigidMotion::Key> keys;
+    for (std::size_t i = 0; i < m->size(); ++i) keys.push_back(read_key(m->element(i)));
+    if (keys.empty()) m->fail("needs at least one key");
+    for (std::size_t i = 1; i < keys.size(); ++i)
+      if (!(keys[i].time > keys[i - 1].time)) m->element(i).fail("must come later than the key before it");
+    o.motion = RigidMotion(std::move(keys));
+  }
+  n.finish();
+  return o;
+}
+
+void read_integrator(Node n, Scene& s) {
+  const std::string type = n.at("type").choice({"newmark", "backward_euler"});
+  if (type == "newmark") {
+    s.integrator = IntegratorKind::newmark;
+    NewmarkSettings& ns = s.newmark;
+    optional(n, "cfl", ns.cfl, [](const Node& v) {
+      const double x = v.positive();
+      if (x > 1.0) v.fail(fmt::format("must be in (0, 1], got {}", x));
+      return x;
+    });
+    optional(n, "max_strain_per_step", ns.max_strain_per_step, [](const Node& v) { return v.positive(); });
+    optional(n, "max_time_step", ns.max_time_step, [](const Node& v) { return v.positive(); });
+    optional(n, "cg_tolerance", ns.cg_tolerance, [](const Node& v) { return v.positive(); });
+    optional(n, "cg_max_iterations", ns.cg_max_iterations, [](const Node& v) { return v.integer(1, 1000000); });
+  } else {
+    s.integrator = IntegratorKind::backward_euler;
+    BackwardEulerSettings& bs = s.backward_euler;
+    optional(n, "time_step", bs.time_step, [](const Node& v) { return v.positive(); });
+    optional(n, "tolerance", bs.tolerance, [](const Node& v) { return v.positive(); });
+    optional(n, "max_newton_iterations", bs.max_newton_iterations, [](const Node& v) { return v.integer(1, 1000); });
+    optional(n, "max_halvings", bs.max_halvings, [](const Node& v) { return v.integer(0, 60); });
+    optional(n, "linear_solver", bs.linear_solver, [](const Node& v) {
+      const std::string c = v.choice({"automatic", "direct", "lagged_pcg"});
+      return c == "direct" ? LinearSolver::direct
+                           : (c == "lagged_pcg" ? LinearSolver::lagged_pcg : LinearSolver::automatic);
+    });
+    optional(n, "pcg_max_iterations", bs.pcg_max_iterations, [](const Node& v) { return v.integer(1, 100000); });
+  }
+  n.finish();
+}
+
+void read_remesh(Node n, RemeshSettings& r) {
+  optional(n, "enabled", r.enabled, [](const Node& v) { return v.boolean(); });
+  optional(n, "condition_growth", r.thresholds.condition_growth, [](const Node& v) {
+    const double x = v.number();
+    if (!(x > 1.0)) v.fail(fmt::format("must be above 1, got {}", x));
+    return x;
+  });
+  optional(n, "min_barycentric", r.thresholds.min_barycentric, [](const Node& v) {
+    const double x = v.number();
+    if (!(x < 0.0)) v.fail(fmt::format("must be negative, got {}", x));
+    return x;
+  });
+  if (auto u = n.get("upkeep")) {
+    if (u->value().is_boolean()) {
+      r.upkeep = u->boolean();
+    } else {
+      optional(*u, "enabled", r.upkeep, [](const Node& v) { return v.boolean(); });
+      UpkeepSettings& us = r.upkeep_settings;
+      optional(*u, "split_length", us.split_length, [](const Node& v) { return v.positive(); });
+      optional(*u, "collapse_length", us.collapse_length, [](const Node& v) { return v.positive(); });
+      optional(*u, "max_passes", us.max_passes, [](const Node& v) { return v.integer(1, 1000); });
+      if (!(us.collapse_length < 0.5 * us.split_length))
+        u->fail(fmt::format("needs collapse_length ({}) below half of split_length ({}), or edges flip between the two",
+                            us.collapse_length, us.split_length));
+      u->finish();
+    }
+  }
+  n.finish();
+}
+
+void read_output(Node n, OutputSettings& o) {
+  optional(n, "folder", o.folder, [](const Node& v) {
+    std::string s = v.string();
+    if (s.empty()) v.fail("must not be empty");
+    return s;
+  });
+  optional(n, "fps", o.fps, [](const Node& v) { return v.positive(); });
+  optional(n, "frames", o.frames, [](const Node& v) { return v.integer(0, 99999); });
+  if (auto f = n.get("formats")) {
+    o.ply = o.obj = false;
+    for (std::size_t i = 0; i < f->size(); ++i) {
+      const std::string c = f->element(i).choice({"ply", "obj"});
+      (c == "ply" ? o.ply : o.obj) = true;
+    }
+  }
+  optional(n, "tet_mesh", o.tet_mesh, [](const Node& v) { return v.boolean(); });
+  optional(n, "hdf5", o.hdf5, [](const Node& v) { return v.boolean(); });
+  n.finish();
+}
+
+}  // namespace
+
+Scene parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder) {
+  json doc;
+  try {
+    doc = json::parse(text);
+  } catch (const json::parse_error& e) {
+    // e.byte is one past the offending character; report line and column.
+    std::size_t line = 1, column = 1;
+    for (std::size_t i = 0; i + 1 < e.byte && i < text.size(); ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        column = 1;
+      } else {
+        ++column;
+      }
+    }
+    throw Error(fmt::format("{}:{}:{}: not valid JSON ({})", source, line, column, e.what()));
+  }
+  Scene s;
+  s.source = source;
+  s.text = std::string(text);
+  s.base_folder = base_folder.string();
+  Node root(doc, "", source);
+  root.expect_object();
+  if (auto v = root.get("version")) {
+    const int version = v->integer(0, 1000000);
+    if (version != kSceneFormatVersion)
+      v->fail(fmt::format("is {}; this goo reads scene format version {}", version, kSceneFormatVersion));
+  }
+  root.get("description");  // free text for the reader
+  optional(root, "gravity", s.gravity, [](const Node& v) { return v.vec3(); });
+  if (auto i = root.get("integrator")) read_integrator(*i, s);
+  if (auto g = root.get("ground")) {
+    HalfSpace ground;
+    optional(*g, "height", ground.offset, [](const Node& v) { return v.number(); });
+    optional(*g, "friction", ground.friction, [](const Node& v) { return v.non_negative(); });
+    g->finish();
+    s.ground = ground;
+  }
+  if (auto st = root.get("surface_tension")) {
+    optional(*st, "form", s.newmark.surface_tension_form, [](const Node& v) {
+      return v.choice({"area_gradient", "paper"}) == "paper" ? SurfaceTensionForm::paper
+                                                              : SurfaceTensionForm::area_gradient;
+    });
+    optional(*st, "smoothing", s.newmark.smoothing, [](const Node& v) { return v.non_negative(); });
+    st->finish();
+  }
+  if (auto o = root.get("obstacles"))
+    for (std::size_t i = 0; i < o->size(); ++i) s.obstacles.push_back(read_obstacle(o->element(i), i, base_folder));
+  Node objects = root.at("objects");
+  if (objects.size() == 0) objects.fail("needs at least one object");
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    s.objects.push_back(read_object(objects.element(i), i, base_folder));
+    if (s.integrator == IntegratorKind::backward_euler && s.objects.back().material.surface_tension > 0.0)
+      objects.element(i).fail(
+          "has surface tension, which the backward_euler integrator does not have yet (use newmark)");
+  }
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < s.objects.size(); ++i)
+    if (!names.insert(s.objects[i].name).second)
+      objects.element(i).fail(fmt::format("repeats the object name '{}'", s.objects[i].name));
+  if (auto r = root.get("remesh")) read_remesh(*r, s.remesh);
+  if (auto o = root.get("output")) read_output(*o, s.output);
+  if (auto c = root.get("checkpoint")) {
+    optional(*c, "every_frames", s.checkpoint_every_frames, [](const Node& v) { return v.integer(0, 1000000); });
+    c->finish();
+  }
+  if (auto l = root.get("limits")) {
+    optional(*l, "max_speed", s.limits.max_speed, [](const Node& v) { return v.positive(); });
+    l->finish();
+  }
+  root.finish();
+  return s;
+}
+
+Scene read_scene(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(fmt::format("{}: cannot open the scene file", path.string()));
+  std::stringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw Error(fmt::format("{}: cannot read the scene file", path.string()));
+  return parse_scene(text.str(), path.string(), path.parent_path().empty() ? "." : path.parent_path());
+}
+
+std::string_view default_scene_text() {
+  return R"({
+  "version": 1,
+  "description": "The built-in demo: a cube of gooey jelly dropped on the floor (W&T figure 3).",
+  "gravity": [0, 0, -9.81],
+  "integrator": {"type": "newmark"},
+  "ground": {"height": 0.0, "friction": 0.5},
+  "objects": [
+    {
+      "name": "jelly",
+      "primitive": {"type": "box", "size": [0.2, 0.2, 0.2], "subdivisions": 12},
+      "transform": {"translate": [0, 0, 0.3], "rotate_degrees": [20, 30, 0]},
+      "material": {"preset": "gooey_jelly", "min_mass_fraction": 0.05},
+      "lattice_spacing": 0.04
+    }
+  ],
+  "output": {"fps": 24, "frames": 72, "folder": "goo-out"},
+  "checkpoint": {"every_frames": 24}
+}
+)";
+}
+
+}  // namespace goo::io

@@ -1,0 +1,28 @@
+#pragma once
+// Scene files: JSON, read strictly (docs/scene-format.md). An unknown key, a
+// wrong type, an impossible value, a missing or invalid mesh file: each is
+// refused with goo::Error naming the file and the JSON path
+// ("drop.json: /objects/0/material/poisson_ratio must be in [0, 0.5), got 0.5").
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include "core/scene.h"
+
+namespace goo::io {
+
+/// The current scene format version (the "version" key; 1 if absent).
+inline constexpr int kSceneFormatVersion = 1;
+
+/// Reads a scene file; relative paths in it resolve from its folder.
+Scene read_scene(const std::filesystem::path& path);
+
+/// Parses scene text; `source` names it in errors, relative paths resolve
+/// from `base_folder`.
+Scene parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder);
+
+/// The built-in demo: a cube of gooey jelly dropped on the floor (W&T
+/// figure 3), three seconds at 24 frames per second.
+std::string_view default_scene_text();
+
+}  // namespace goo::io

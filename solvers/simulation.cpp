@@ -1,0 +1,395 @@
+#include "solvers/simulation.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "core/parallel.h"
+#include "core/surface_geometry.h"
+#include "meshing/remesh_trigger.h"
+#include "solvers/backward_euler.h"
+#include "solvers/newmark.h"
+#include "solvers/remesh.h"
+#include "solvers/stepping.h"
+
+namespace goo {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+/// The boundary faces of a tetrahedral mesh, outward, as an embedded
+/// surface: each boundary node is a surface vertex sitting on a corner of
+/// its first element (barycentric coordinate 1 there).
+void embed_boundary(Body& body) {
+  // Faces opposite corner k of a positively oriented tet, outward.
+  static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+  struct Face {
+    std::array<Index, 3> key;
+    Index e;
+    int k;
+  };
+  std::vector<Face> faces;
+  faces.reserve(4 * at(body.num_elements()));
+  for (Index e = 0; e < body.num_elements(); ++e)
+    for (int k = 0; k < 4; ++k) {
+      std::array<Index, 3> key{body.tets(e, kFace[k][0]), body.tets(e, kFace[k][1]), body.tets(e, kFace[k][2])};
+      std::sort(key.begin(), key.end());
+      faces.push_back({key, e, k});
+    }
+  std::sort(faces.begin(), faces.end(), [](const Face& a, const Face& b) {
+    return a.key != b.key ? a.key < b.key : std::pair(a.e, a.k) < std::pair(b.e, b.k);
+  });
+  std::vector<Index> vertex_of(at(body.num_nodes()), -1);
+  std::vector<Index> nodes;
+  std::vector<std::array<Index, 3>> triangles;
+  for (std::size_t i = 0; i < faces.size();) {
+    std::size_t j = i;
+    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
+    if (j - i == 1) {
+      std::array<Index, 3> t{};
+      for (int c = 0; c < 3; ++c) {
+        const Index n = body.tets(faces[i].e, kFace[faces[i].k][c]);
+        if (vertex_of[at(n)] < 0) {
+          vertex_of[at(n)] = static_cast<Index>(nodes.size());
+          nodes.push_back(n);
+        }
+        t[static_cast<std::size_t>(c)] = vertex_of[at(n)];
+      }
+      triangles.push_back(t);
+    }
+    i = j;
+  }
+  body.surface_triangles.resize(static_cast<Eigen::Index>(triangles.size()), 3);
+  for (std::size_t t = 0; t < triangles.size(); ++t)
+    for (int c = 0; c < 3; ++c) body.surface_triangles(static_cast<Eigen::Index>(t), c) = triangles[t][at(c)];
+  Embedding& em = body.embedding;
+  em.parent.resize(nodes.size());
+  em.bary = decltype(em.bary)::Zero(static_cast<Eigen::Index>(nodes.size()), 4);
+  for (std::size_t v = 0; v < nodes.size(); ++v) {
+    const Index corner = body.incidence.corners[at(body.incidence.offsets[at(nodes[v])])];
+    em.parent[v] = corner / 4;
+    em.bary(static_cast<Eigen::Index>(v), corner % 4) = 1.0;
+  }
+}
+
+std::vector<Index> nodes_in(const Points& x, const std::vector<PinnedRegion>& regions) {
+  std::vector<Index> out;
+  for (Index n = 0; n < static_cast<Index>(x.rows()); ++n)
+    for (const auto& r : regions)
+      if (r.box.contains(x.row(n).transpose())) {
+        out.push_back(n);
+        break;
+      }
+  return out;
+}
+
+}  // namespace
+
+struct Simulation::Stepper {
+  std::unique_ptr<NewmarkIntegrator> newmark;
+  std::unique_ptr<BackwardEulerIntegrator> backward_euler;
+};
+
+Simulation::Simulation(const Scene& scene) : scene_(scene) {
+  for (auto& object : scene_.objects) {  // the meshes are needed once, below
+    object.surface.reset();
+    object.tet_mesh.reset();
+  }
+  if (scene.objects.empty()) throw Error(fmt::format("{}: objects: the scene has no object to simulate", scene.source));
+  for (const SceneObject& object : scene.objects) {
+    SimulationBody b;
+    b.name = object.name;
+    b.regions = object.pinned;
+    Eigen::Vector3d centre;
+    if (object.surface) {
+      b.lattice = true;
+      b.h = object.lattice_spacing;
+      centre = surface_integrals(*object.surface).centroid;
+      b.body = mesh_body(*object.surface, object.material, b.h).body;
+    } else {
+      b.body = make_body(*object.tet_mesh, object.material, object.name);
+      embed_boundary(b.body);
+      double volume = 0.0;
+      centre.setZero();
+      for (Index e = 0; e < b.body.num_elements(); ++e) {
+        Eigen::Vector3d c = Eigen::Vector3d::Zero();
+        for (int k = 0; k < 4; ++k) c += b.body.positions.row(b.body.tets(e, k)).transpose() / 4.0;
+        centre += b.body.rest_volumes[e] * c;
+        volume += b.body.rest_volumes[e];
+      }
+      centre /= volume;
+    }
+    Body& body = b.body;
+    for (Index n = 0; n < body.num_nodes(); ++n) {
+      const Eigen::Vector3d r = body.positions.row(n).transpose() - centre;
+      body.velocities.row(n) = (object.velocity + object.angular_velocity.cross(r)).transpose();
+    }
+    b.pinned = nodes_in(body.positions, b.regions);
+    for (const Index n : b.pinned) body.velocities.row(n).setZero();
+    bodies_.push_back(std::move(b));
+  }
+  steppers_.resize(bodies_.size());
+  for (std::size_t i = 0; i < bodies_.size(); ++i) attach(i);
+}
+
+Simulation::~Simulation() = default;
+
+void Simulation::attach(std::size_t i) {
+  Constraints constraints;
+  constraints.pinned = bodies_[i].pinned;
+  constraints.obstacles = scene_.obstacles;
+  if (scene_.ground) {
+    // The floor meets the embedded surface, like every obstacle (a node-level
+    // ground would hold the lattice's outer nodes, up to h outside the surface).
+    constraints.obstacles.push_back(Obstacle{"ground", make_half_space(scene_.ground->normal, scene_.ground->offset),
+                                             RigidMotion{}, scene_.ground->friction});
+  }
+  auto stepper = std::make_unique<Stepper>();
+  if (scene_.integrator == IntegratorKind::newmark) {
+    NewmarkSettings settings = scene_.newmark;
+    settings.gravity = scene_.gravity;
+    stepper->newmark = std::make_unique<NewmarkIntegrator>(settings, std::move(constraints));
+    stepper->newmark->set_time(time_);
+  } else {
+    BackwardEulerSettings settings = scene_.backward_euler;
+    settings.gravity = scene_.gravity;
+    stepper->backward_euler = std::make_unique<BackwardEulerIntegrator>(settings, std::move(constraints));
+    stepper->backward_euler->set_time(time_);
+  }
+  steppers_[i] = std::move(stepper);
+}
+
+void Simulation::make_restart_point() {
+  for (auto& s : steppers_) {
+    if (s->newmark) s->newmark->invalidate();
+    if (s->backward_euler) s->backward_euler->invalidate();
+  }
+}
+
+void Simulation::check_state(std::size_t i) const {
+  // Architecture.md, "Nothing lost": a numerical failure stops the run with
+  // a diagnosis. The worst node is the first non-finite one, else the fastest.
+  const Body& body = bodies_[i].body;
+  Index worst = -1;
+  double worst_speed = -1.0;
+  bool finite = true;
+  for (Index n = 0; n < body.num_nodes(); ++n) {
+    const bool ok = body.positions.row(n).allFinite() && body.velocities.row(n).allFinite();
+    if (!ok) {
+      worst = n;
+      finite = false;
+      break;
+    }
+    const double speed = body.velocities.row(n).norm();
+    if (speed > worst_speed) {
+      worst_speed = speed;
+      worst = n;
+    }
+  }
+  if (finite && worst_speed <= scene_.limits.max_speed) return;
+  const Index corner = body.incidence.corners[at(body.incidence.offsets[at(worst)])];
+  const std::string what = finite ? fmt::format("moves at {:.4g} m/s, above limits.max_speed = {:.4g} m/s (an energy "
+                                                "blow-up)",
+                                                worst_speed, scene_.limits.max_speed)
+                                  : std::string("has a non-finite position or velocity");
+  throw NumericalFailure(fmt::format(
+      "numerical failure at step {} (t = {:.6g} s, Δt = {:.3g} s): body '{}', node {} of element {} {}; lower the time "
+      "step (newmark.cfl, newmark.max_time_step or backward_euler.time_step) or check the material",
+      steps_, time_, last_dt_, bodies_[i].name, worst, corner / 4, what));
+}
+
+void Simulation::step_body(std::size_t i, double max_dt) {
+  SimulationBody& b = bodies_[i];
+  Stepper& s = *steppers_[i];
+  auto start = Clock::now();
+  if (s.newmark) {
+    last_dt_ = s.newmark->step(b.body, max_dt).dt;
+  } else {
+    last_dt_ = s.backward_euler->step(b.body, max_dt).dt;
+  }
+  ++steps_;
+  times_.integrate += seconds_since(start);
+
+  start = Clock::now();
+  check_state(i);
+  times_.safety += seconds_since(start);
+
+  if (!b.lattice || !scene_.remesh.enabled) return;
+  start = Clock::now();
+  const bool due = remesh_due(b.body, b.body.positions, b.body.embedding.bary, scene_.remesh.thresholds);
+  times_.remesh_check += seconds_since(start);
+  if (!due) return;
+  const RemeshCheck check = check_remesh(b.body, b.body.positions, b.body.embedding.bary, scene_.remesh.thresholds);
+
+  // W&T fig. 8, last stage: a new lattice mesh around the current surface.
+  start = Clock::now();
+  RemeshReport report;
+  const double t = s.newmark ? s.newmark->time() : s.backward_euler->time();
+  MeshedBody meshed = remesh(b.body, b.body.surface(), b.h, &report,
+                             scene_.remesh.upkeep ? &scene_.remesh.upkeep_settings : nullptr);
+  b.body = std::move(meshed.body);
+  b.pinned = nodes_in(b.body.positions, b.regions);
+  for (const Index n : b.pinned) b.body.velocities.row(n).setZero();
+  const double saved = time_;
+  time_ = t;
+  attach(i);
+  time_ = saved;
+  ++remeshes_;
+  times_.remesh += seconds_since(start);
+  log().debug("re-mesh of '{}' at t = {:.6g} s: {} → {} elements (element {}, vertex {}, growth {:.3g})", b.name, t,
+              report.old_elements, report.new_elements, check.element, check.vertex, check.worst_growth);
+}
+
+bool Simulation::advance_to(double t_end, const std::function<bool()>& stop) {
+  for (std::size_t i = 0; i < bodies_.size(); ++i) {
+    Stepper& s = *steppers_[i];
+    double t = s.newmark ? s.newmark->time() : s.backward_euler->time();
+    bool stopped = false;
+    step_until(t, t_end, [&](double max_dt) {
+      if (stopped) {
+        t = t_end;  // leaves the loop; the state stays where it was
+        return;
+      }
+      step_body(i, max_dt);
+      Stepper& now = *steppers_[i];  // a re-mesh replaces the integrator
+      t = now.newmark ? now.newmark->time() : now.backward_euler->time();
+      if (stop && stop()) stopped = true;
+    });
+    if (stopped) return false;
+    // Land each integrator's clock exactly on t_end, as step_until did for t.
+    if (steppers_[i]->newmark) steppers_[i]->newmark->set_time(t_end);
+    if (steppers_[i]->backward_euler) steppers_[i]->backward_euler->set_time(t_end);
+  }
+  time_ = t_end;
+  return true;
+}
+
+SimulationTotals Simulation::totals() const {
+  SimulationTotals out;
+  for (const SimulationBody& b : bodies_) {
+    const Body& body = b.body;
+    out.mass += body.masses.sum();
+    out.momentum += linear_momentum(body);
+    for (Index n = 0; n < body.num_nodes(); ++n) out.max_speed = std::max(out.max_speed, body.velocities.row(n).norm());
+    out.volume += surface_integrals(body.surface()).volume;
+    out.nodes += body.num_nodes();
+    out.elements += body.num_elements();
+    out.surface_vertices += body.embedding.num_vertices();
+    out.surface_triangles += static_cast<Index>(body.surface_triangles.rows());
+  }
+  return out;
+}
+
+TriangleMesh Simulation::surface() const {
+  TriangleMesh out;
+  Index vertices = 0, triangles = 0;
+  for (const auto& b : bodies_) {
+    vertices += b.body.embedding.num_vertices();
+    triangles += static_cast<Index>(b.body.surface_triangles.rows());
+  }
+  out.vertices.resize(vertices, 3);
+  out.triangles.resize(triangles, 3);
+  Index v0 = 0, t0 = 0;
+  for (const auto& b : bodies_) {
+    const TriangleMesh s = b.body.surface();
+    out.vertices.middleRows(v0, s.vertices.rows()) = s.vertices;
+    out.triangles.middleRows(t0, s.triangles.rows()) = s.triangles.array() + v0;
+    v0 += static_cast<Index>(s.vertices.rows());
+    t0 += static_cast<Index>(s.triangles.rows());
+  }
+  return out;
+}
+
+StateRecord Simulation::save() const {
+  StateRecord r;
+  r.put("time", time_);
+  r.put("steps", steps_);
+  r.put("remeshes", remeshes_);
+  r.put("last_time_step", last_dt_);
+  r.put("bodies/count", static_cast<std::int64_t>(bodies_.size()));
+  for (std::size_t i = 0; i < bodies_.size(); ++i) {
+    const SimulationBody& b = bodies_[i];
+    const Body& body = b.body;
+    const std::string p = fmt::format("bodies/{}/", i);
+    r.put_string(p + "name", b.name);
+    r.put(p + "lattice", static_cast<std::int64_t>(b.lattice));
+    r.put(p + "lattice_spacing", b.h);
+    r.put_matrix(p + "rest_positions", body.rest_positions);
+    r.put_matrix(p + "positions", body.positions);
+    r.put_matrix(p + "velocities", body.velocities);
+    r.put_vector(p + "masses", body.masses);
+    r.put(p + "tets", body.tets);
+    r.put(p + "Dm_inv", body.Dm_inv);
+    r.put_vector(p + "rest_volumes", body.rest_volumes);
+    r.put(p + "Fp", body.Fp);
+    r.put_vector(p + "alpha", body.alpha);
+    r.put_vector(p + "rest_condition", body.rest_condition);
+    r.put(p + "surface_triangles", body.surface_triangles);
+    r.put(p + "embedding_parent", body.embedding.parent);
+    r.put_matrix(p + "embedding_bary", Eigen::MatrixXd(body.embedding.bary));
+    r.put(p + "pinned", b.pinned);
+  }
+  return r;
+}
+
+void Simulation::load(const StateRecord& r) {
+  const auto count = r.integer("bodies/count");
+  if (count != static_cast<std::int64_t>(bodies_.size()))
+    throw Error(fmt::format("the state holds {} bodies, the scene {}", count, bodies_.size()));
+  time_ = r.real("time");
+  steps_ = r.integer("steps");
+  remeshes_ = r.integer("remeshes");
+  last_dt_ = r.real("last_time_step");
+  for (std::size_t i = 0; i < bodies_.size(); ++i) {
+    SimulationBody& b = bodies_[i];
+    const std::string p = fmt::format("bodies/{}/", i);
+    if (r.string(p + "name") != b.name)
+      throw Error(fmt::format("state body {} is '{}', the scene's is '{}'", i, r.string(p + "name"), b.name));
+    b.lattice = r.integer(p + "lattice") != 0;
+    b.h = r.real(p + "lattice_spacing");
+    Body body;
+    body.material = b.body.material;
+    body.rest_positions = r.points(p + "rest_positions");
+    body.positions = r.points(p + "positions");
+    body.velocities = r.points(p + "velocities");
+    body.masses = r.vector(p + "masses");
+    body.tets = r.tets(p + "tets");
+    body.Dm_inv = r.matrices3(p + "Dm_inv");
+    body.rest_volumes = r.vector(p + "rest_volumes");
+    body.Fp = r.matrices3(p + "Fp");
+    body.alpha = r.vector(p + "alpha");
+    body.rest_condition = r.vector(p + "rest_condition");
+    body.surface_triangles = r.triangles(p + "surface_triangles");
+    body.embedding.parent = r.indices(p + "embedding_parent");
+    body.embedding.bary = r.matrix(p + "embedding_bary", 4);
+    b.pinned = r.indices(p + "pinned");
+    // Every count must agree, and every id be in range, before anything uses them.
+    const auto nn = body.positions.rows(), ne = body.tets.rows();
+    const auto nv = static_cast<Eigen::Index>(body.embedding.parent.size());
+    const bool sizes = body.rest_positions.rows() == nn && body.velocities.rows() == nn && body.masses.size() == nn &&
+                       std::ssize(body.Dm_inv) == ne && body.rest_volumes.size() == ne && std::ssize(body.Fp) == ne &&
+                       body.alpha.size() == ne && body.rest_condition.size() == ne && body.embedding.bary.rows() == nv;
+    const bool ids = (ne == 0 || (body.tets.minCoeff() >= 0 && body.tets.maxCoeff() < nn)) &&
+                     (body.surface_triangles.rows() == 0 ||
+                      (body.surface_triangles.minCoeff() >= 0 && body.surface_triangles.maxCoeff() < nv)) &&
+                     std::all_of(body.embedding.parent.begin(), body.embedding.parent.end(),
+                                 [&](Index e) { return e >= 0 && e < ne; }) &&
+                     std::all_of(b.pinned.begin(), b.pinned.end(), [&](Index n) { return n >= 0 && n < nn; });
+    if (!sizes || !ids) throw Error(fmt::format("state body {} ('{}'): array sizes or ids do not agree", i, b.name));
+    body.incidence = NodeIncidence::build(body.tets, static_cast<Index>(nn));
+    b.body = std::move(body);
+  }
+  for (std::size_t i = 0; i < bodies_.size(); ++i) attach(i);
+}
+
+}  // namespace goo

@@ -1,0 +1,109 @@
+#pragma once
+// The step pipeline of architecture.md ("One time step"), assembled per scene
+// from only the stages it needs, behind a thin owner of the state: bodies,
+// their integrators and constraints, the clock and the counters.
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "core/body.h"
+#include "core/scene.h"
+#include "core/state_record.h"
+
+namespace goo {
+
+/// A run that went numerically wrong (a non-finite value, a node faster than
+/// the scene's limits.max_speed). Not bad input: the message is a diagnosis
+/// naming the step, the time, the body, the node and an element holding it.
+class NumericalFailure : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Wall time spent per stage, seconds.
+struct StageTimes {
+  double integrate = 0.0;     ///< forces, integration, plastic flow, smoothing, collisions (one integrator step)
+  double remesh_check = 0.0;  ///< the re-mesh trigger
+  double remesh = 0.0;        ///< surface upkeep, new lattice mesh, transfer, exact masses
+  double safety = 0.0;        ///< the finite-value and speed checks
+};
+
+/// Totals over every body.
+struct SimulationTotals {
+  double mass = 0.0;                                   ///< Σ m, kg
+  double volume = 0.0;                                 ///< enclosed by the surfaces, m³
+  Eigen::Vector3d momentum = Eigen::Vector3d::Zero();  ///< Σ m v, kg m/s
+  double max_speed = 0.0;                              ///< max |v| over nodes, m/s
+  Index nodes = 0;
+  Index elements = 0;
+  Index surface_vertices = 0;
+  Index surface_triangles = 0;
+};
+
+struct SimulationBody {
+  std::string name;
+  Body body;
+  bool lattice = false;  ///< meshed on the lattice around its surface, re-meshed when degraded
+  double h = 0.0;        ///< lattice spacing, m
+  std::vector<PinnedRegion> regions;
+  std::vector<Index> pinned;  ///< node ids held still
+};
+
+class Simulation {
+ public:
+  /// Builds every body at t = 0: surface objects meshed on the lattice,
+  /// tetrahedral objects as they are with their boundary as the embedded
+  /// surface; initial velocity v + ω × (x − c), c the centroid of the object.
+  explicit Simulation(const Scene& scene);
+  ~Simulation();
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  /// Steps every body until t_end (each body on its own time steps, landing
+  /// exactly on t_end), re-meshing a lattice body after a step that trips
+  /// the trigger. `stop` is asked after each step; true abandons the advance
+  /// (returns false; the state is then between steps). Throws
+  /// NumericalFailure when a step produces a non-finite or runaway state.
+  bool advance_to(double t_end, const std::function<bool()>& stop = {});
+
+  /// Drops what the integrators carry from step to step (cached forces, a
+  /// lagged factor), so that what follows depends on the state alone. The
+  /// run calls it at every frame, so that a checkpoint resumes bitwise.
+  void make_restart_point();
+
+  /// The complete state (every array of every body, clock, counters).
+  [[nodiscard]] StateRecord save() const;
+  /// Replaces the state with a saved one of the same scene (goo::Error if
+  /// it does not fit: missing arrays, wrong shapes, another body count).
+  void load(const StateRecord& record);
+
+  [[nodiscard]] double time() const { return time_; }
+  [[nodiscard]] std::int64_t steps() const { return steps_; }
+  [[nodiscard]] std::int64_t remeshes() const { return remeshes_; }
+  [[nodiscard]] const StageTimes& stage_times() const { return times_; }
+  [[nodiscard]] const std::vector<SimulationBody>& bodies() const { return bodies_; }
+  [[nodiscard]] SimulationTotals totals() const;
+  /// Every body's surface at the current positions, in one mesh (body order).
+  [[nodiscard]] TriangleMesh surface() const;
+  /// The Δt the last step of each body took (0 before any step), s.
+  [[nodiscard]] double last_time_step() const { return last_dt_; }
+
+ private:
+  struct Stepper;
+  void attach(std::size_t i);  ///< (re)builds body i's constraints and integrator
+  void step_body(std::size_t i, double max_dt);
+  void check_state(std::size_t i) const;
+
+  Scene scene_;  // settings, obstacles and ground (meshes of objects dropped)
+  std::vector<SimulationBody> bodies_;
+  std::vector<std::unique_ptr<Stepper>> steppers_;
+  double time_ = 0.0;
+  double last_dt_ = 0.0;
+  std::int64_t steps_ = 0;
+  std::int64_t remeshes_ = 0;
+  StageTimes times_;
+};
+
+}  // namespace goo
