@@ -4,10 +4,12 @@
 #include <fmt/ostream.h>
 
 #include <nlohmann/json.hpp>
+#include <fstream>
 #include <ostream>
 
 #include "core/error.h"
 #include "core/surface_check.h"
+#include "io/checkpoint.h"
 #include "io/surface_mesh_io.h"
 
 namespace goo::app {
@@ -89,9 +91,62 @@ void print_text(std::ostream& out, const std::filesystem::path& path, const Surf
   row("simulable", yes_no(!r.first_defect));
 }
 
+bool is_checkpoint(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string magic(14, '\0');
+  in.read(magic.data(), static_cast<std::streamsize>(magic.size()));
+  return in && magic == "goo-checkpoint";
+}
+
+/// goo info CHECKPOINT: time, frame, bodies and their counts.
+int checkpoint_info(const std::filesystem::path& path, bool json, std::ostream& out) {
+  const StateRecord r = io::read_checkpoint(path);
+  nlohmann::json j;
+  j["file"] = path.string();
+  j["kind"] = "checkpoint";
+  j["format_version"] = io::kCheckpointFormatVersion;
+  j["time"] = r.real("time");
+  j["frame"] = r.integer("run/frame");
+  j["steps"] = r.integer("steps");
+  j["remeshes"] = r.integer("remeshes");
+  j["last_time_step"] = r.real("last_time_step");
+  j["scene"] = r.string("scene/source");
+  const auto count = r.integer("bodies/count");
+  j["bodies"] = nlohmann::json::array();
+  for (std::int64_t i = 0; i < count; ++i) {
+    const std::string p = fmt::format("bodies/{}/", i);
+    const Eigen::VectorXd m = r.vector(p + "masses");
+    j["bodies"].push_back({{"name", r.string(p + "name")},
+                           {"nodes", r.points(p + "positions").rows()},
+                           {"elements", r.tets(p + "tets").rows()},
+                           {"surface_vertices", r.indices(p + "embedding_parent").size()},
+                           {"surface_triangles", r.triangles(p + "surface_triangles").rows()},
+                           {"mass", m.sum()},
+                           {"lattice", r.integer(p + "lattice") != 0}});
+  }
+  if (json) {
+    out << j.dump(2) << '\n';
+    return 0;
+  }
+  auto row = [&](std::string_view key, const std::string& value) { fmt::print(out, "{:<15}{}\n", key, value); };
+  row("file", fmt::format("{} (goo checkpoint, format version {})", path.string(), io::kCheckpointFormatVersion));
+  row("scene", r.string("scene/source"));
+  row("time", fmt::format("{:.6g} s", r.real("time")));
+  row("frame", std::to_string(r.integer("run/frame")));
+  row("steps", std::to_string(r.integer("steps")));
+  row("re-meshes", std::to_string(r.integer("remeshes")));
+  for (const auto& b : j["bodies"]) {
+    row("body", fmt::format("{}: {} nodes, {} elements, {} surface triangles, mass {:.6g} kg", b["name"].get<std::string>(),
+                            b["nodes"].get<long>(), b["elements"].get<long>(), b["surface_triangles"].get<long>(),
+                            b["mass"].get<double>()));
+  }
+  return 0;
+}
+
 }  // namespace
 
 int run_info(const std::filesystem::path& mesh_path, bool json, std::ostream& out) {
+  if (is_checkpoint(mesh_path)) return checkpoint_info(mesh_path, json, out);
   io::ReadOptions options;
   options.validate = false;  // report on what is there; judge below
   const TriangleMesh mesh = io::read_surface_mesh(mesh_path, options);

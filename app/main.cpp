@@ -29,8 +29,8 @@ int main(int argc, char** argv) {
   std::string mesh_path;
   bool json = false;
   CLI::App* info =
-      app.add_subcommand("info", "Describe a surface mesh (OFF, OBJ, PLY, STL) and check it can be simulated");
-  info->add_option("MESH", mesh_path, "Surface mesh file")->required();
+      app.add_subcommand("info", "Describe a surface mesh (OFF, OBJ, PLY, STL) and check it can be simulated, or describe a checkpoint");
+  info->add_option("MESH", mesh_path, "Surface mesh file, or a goo checkpoint (.h5)")->required();
   info->add_flag("--json", json, "Print the report as JSON");
 
   goo::app::RunOptions run_options;

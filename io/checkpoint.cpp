@@ -54,7 +54,9 @@ void make_groups(hid_t root, const std::string& name, const std::filesystem::pat
   for (std::size_t slash = name.find('/'); slash != std::string::npos; slash = name.find('/', slash + 1)) {
     const std::string group = name.substr(0, slash);
     if (H5Lexists(root, group.c_str(), H5P_DEFAULT) > 0) continue;
-    H5Handle g(check(H5Gcreate2(root, group.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), path, "create " + group),
+    H5Handle gcpl(H5Pcreate(H5P_GROUP_CREATE), H5Pclose);
+    H5Pset_obj_track_times(gcpl, 0);
+    H5Handle g(check(H5Gcreate2(root, group.c_str(), H5P_DEFAULT, gcpl, H5P_DEFAULT), path, "create " + group),
                H5Gclose);
   }
 }
@@ -84,6 +86,7 @@ H5Handle checksummed(const std::vector<hsize_t>& dims) {
   for (std::size_t k = 1; k < dims.size(); ++k) chunk[k] = std::max<hsize_t>(dims[k], 1);
   H5Pset_chunk(plist, static_cast<int>(dims.size()), chunk.data());
   H5Pset_fletcher32(plist);
+  H5Pset_obj_track_times(plist, 0);  // no modification times: equal states give equal files
   return plist;
 }
 
@@ -127,14 +130,16 @@ void write_string(hid_t root, const std::string& name, const std::string& value,
 void write_hdf5(const std::filesystem::path& file, const std::filesystem::path& shown, const StateRecord& record) {
   H5Handle fcpl(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
   check(H5Pset_userblock(fcpl, kUserBlock), shown, "reserve the user block");
+  H5Pset_obj_track_times(fcpl, 0);  // the root group too
   H5Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
   // 1.10 formats: checksummed superblock and object headers.
   check(H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_V110), shown, "select the file format");
   H5Handle f(check(H5Fcreate(file.c_str(), H5F_ACC_TRUNC, fcpl, fapl), shown, "create the file"), H5Fclose);
   set_string_attribute(f, "format", kMagic, shown);
   set_int_attribute(f, "format_version", kCheckpointFormatVersion, shown);
-  H5Handle state(check(H5Gcreate2(f, "state", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), shown, "create /state"),
-                 H5Gclose);
+  H5Handle gcpl(H5Pcreate(H5P_GROUP_CREATE), H5Pclose);
+  H5Pset_obj_track_times(gcpl, 0);
+  H5Handle state(check(H5Gcreate2(f, "state", H5P_DEFAULT, gcpl, H5P_DEFAULT), shown, "create /state"), H5Gclose);
   for (const auto& [name, array] : record.arrays()) write_dataset(state, name, array, shown);
   for (const auto& [name, value] : record.strings()) write_string(state, name, value, shown);
   check(H5Fflush(f, H5F_SCOPE_GLOBAL), shown, "flush");
