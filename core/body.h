@@ -39,6 +39,10 @@ struct Body {
   Eigen::VectorXd rest_condition;       ///< #E condition number of Dm at creation
 
   NodeIncidence incidence;
+  /// The stress-free volume of the material, Σ W det Fp over the solid, m³:
+  /// invariant in time (plastic flow is isochoric), so a re-mesh restores it
+  /// (0: not tracked).
+  double rest_material_volume = 0.0;
 
   // The embedded surface (empty for a body without one).
   Triangles surface_triangles;  ///< #T×3 vertex ids, counter-clockwise seen from outside

@@ -223,14 +223,21 @@ ElementOverlaps element_overlaps(const Tets& old_tets, const Points& old_x, cons
 ElasticState transfer_elastic_state(const ElementOverlaps& overlaps, const NodeSources& sources,
                                     const std::vector<Eigen::Matrix3d>& old_Fe, const Eigen::VectorXd& old_alpha,
                                     const LatticeMesh& new_mesh, double min_stretch) {
-  // World-frame left stretches of the old elements: Fe = U Σ Vᵀ → U Σ Uᵀ.
+  // World-frame left stretches of the old elements, Fe = U Σ Vᵀ → U Σ Uᵀ,
+  // averaged in the log (log-Euclidean mean): log S = U ln Σ Uᵀ. A plain
+  // mean of stretches inflates the determinant (the mean of diag(2, ½) and
+  // diag(½, 2) has det 25/16), so material that re-meshes often under large
+  // shear would lose volume at every re-mesh; the log mean keeps det S the
+  // volume-weighted geometric mean of the old determinants. Singular values
+  // below min_stretch (inverted or flattened elements) are raised to it first.
   std::vector<Eigen::Matrix3d> stretch(old_Fe.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, old_Fe.size(), kParallelGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t k = r.begin(); k != r.end(); ++k) {
                         const Svd3 svd = svd3(old_Fe[k]);
-                        const Eigen::Matrix3d S = svd.U * svd.sigma.asDiagonal() * svd.U.transpose();
-                        stretch[k] = 0.5 * (S + S.transpose());
+                        const Eigen::Vector3d log_sigma = svd.sigma.cwiseMax(min_stretch).array().log().matrix();
+                        const Eigen::Matrix3d L = svd.U * log_sigma.asDiagonal() * svd.U.transpose();
+                        stretch[k] = 0.5 * (L + L.transpose());
                       }
                     });
   const Index ne = new_mesh.mesh.num_elements();
@@ -260,10 +267,10 @@ ElasticState transfer_elastic_state(const ElementOverlaps& overlaps, const NodeS
       }
       S /= weight;
       alpha /= weight;
+      // S = exp(mean log S): symmetric, eigenvalues ≥ min_stretch (the mean of logs ≥ ln min_stretch).
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(S);
-      if (eig.eigenvalues().minCoeff() < min_stretch)
-        S = eig.eigenvectors() * eig.eigenvalues().cwiseMax(min_stretch).asDiagonal() * eig.eigenvectors().transpose();
-      out.Fe[at(e)] = S;
+      const Eigen::Vector3d lambda = eig.eigenvalues().array().exp().matrix().cwiseMax(min_stretch);
+      out.Fe[at(e)] = eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
       out.alpha[e] = alpha;
     }
   });

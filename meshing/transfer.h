@@ -48,10 +48,13 @@ struct ElasticState {
 
 /// Only the world-frame left stretch S = U Σ Uᵀ of an old Fe = U Σ Vᵀ carries
 /// stress, so S (not Fe) and α are averaged with the overlap volumes as
-/// weights; a new element that overlaps no old one takes the plain average
-/// of the sources of its four nodes. Eigenvalues of the average below
-/// `min_stretch` are raised to it (an inverted old state does not survive a
-/// re-mesh: the new element is positive, and its mass ρV/det Fe must be).
+/// weights, S by its matrix logarithm (log-Euclidean mean: det S is the
+/// weighted geometric mean of the old determinants, where a plain mean of
+/// sheared stretches would inflate it and lose volume at every re-mesh); a
+/// new element that overlaps no old one takes the mean of the sources of its
+/// four nodes. Singular values below `min_stretch` are raised to it first (an
+/// inverted old state does not survive a re-mesh: the new element is
+/// positive, and its mass ρV/det Fe must be).
 ElasticState transfer_elastic_state(const ElementOverlaps& overlaps, const NodeSources& sources,
                                     const std::vector<Eigen::Matrix3d>& old_Fe, const Eigen::VectorXd& old_alpha,
                                     const LatticeMesh& new_mesh, double min_stretch);

@@ -68,6 +68,7 @@ MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, doub
   MeshedBody out{Body{}, build_lattice_mesh(surface, h)};
   out.body = body_on_lattice(out.lattice_mesh, material);
   const ElementSolid solid = clip_solid_to_elements(out.lattice_mesh, surface);
+  out.body.rest_material_volume = solid.volume.sum();
   out.body.masses = exact_node_masses(out.lattice_mesh, solid, material.density, {}, material.min_mass_fraction);
   out.body.surface_triangles = surface.triangles;
   out.body.embedding = embed(out.lattice_mesh, surface.vertices);
@@ -102,16 +103,28 @@ MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, Remesh
   const ElementOverlaps overlaps = element_overlaps(old.tets, old.positions, lm);
   const ElasticState state =
       transfer_elastic_state(overlaps, sources, old_Fe, old.alpha, lm, kPlasticMinSingularValue);
+  // The material's stress-free volume Σ V_solid / det Fe is invariant (plastic
+  // flow is isochoric); the averaged state misses it by a discretisation
+  // error, which would act as a pressure and, re-mesh after re-mesh, drive
+  // the body to the wrong volume. One factor on every Fe restores it:
+  // Fe ← r^(−1/3) Fe, r = V_rest / Σ V_solid / det Fe.
+  const ElementSolid solid = clip_solid_to_elements(lm, surface);
+  double rest_volume = 0.0;
+  for (Index e = 0; e < body.num_elements(); ++e) rest_volume += solid.volume[e] / state.Fe[at(e)].determinant();
+  const double r = old.rest_material_volume > 0.0 && rest_volume > 0.0 ? old.rest_material_volume / rest_volume : 1.0;
+  const double fe_scale = std::cbrt(1.0 / r);
+  body.rest_material_volume = old.rest_material_volume > 0.0 ? old.rest_material_volume : rest_volume;
+  if (report) report->rest_volume_error = std::abs(r - 1.0);
   std::vector<double> det_Fe(at(body.num_elements()));
   for (Index e = 0; e < body.num_elements(); ++e) {
     // F = I on the new mesh, so Fe = Fp⁻¹: Fp = Fe⁻¹ (det Fp = 1 / det Fe).
-    body.Fp[at(e)] = state.Fe[at(e)].inverse();
-    det_Fe[at(e)] = state.Fe[at(e)].determinant();
+    const Eigen::Matrix3d Fe = fe_scale * state.Fe[at(e)];
+    body.Fp[at(e)] = Fe.inverse();
+    det_Fe[at(e)] = Fe.determinant();
   }
   body.alpha = state.alpha;
 
   // Exact masses of the transferred state, clamped.
-  const ElementSolid solid = clip_solid_to_elements(lm, surface);
   body.masses = exact_node_masses(lm, solid, old.material.density, det_Fe, old.material.min_mass_fraction);
 
   // Conservation: m_i ← m_i (a + g·(x_i − c)) restores total mass and centre
@@ -146,15 +159,22 @@ MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, Remesh
     scale[n] = a + g.dot(body.positions.row(n).transpose() - now.centre);
     plausible = plausible && scale[n] > 0.5 && scale[n] < 2.0;
   }
+  if (!plausible && std::isfinite(a) && a > 0.0) {
+    // The affine correction would distort the masses (a flat body has almost
+    // no second moment across itself): scale them uniformly instead, which
+    // still restores total mass and momentum; the centre of mass keeps the
+    // transfer's error (report->centre_error).
+    log().debug("re-mesh: affine mass correction implausible; scaling masses uniformly by {}", a);
+    scale.setConstant(a);
+    plausible = true;
+  }
   if (plausible) {
     body.masses = body.masses.cwiseProduct(scale);
     const Totals corrected = totals(body.masses, body.positions, body.velocities);
     const Eigen::RowVector3d dv = ((before.momentum - corrected.momentum) / corrected.mass).transpose();
     body.velocities.rowwise() += dv;
   } else {
-    log().warn("re-mesh: the transferred masses are too far from the old ones to correct (mass ratio {}); kept as "
-               "they are",
-               a);
+    log().warn("re-mesh: the transferred masses cannot be corrected (mass ratio {}); kept as they are", a);
   }
   body.surface_triangles = surface.triangles;
   body.embedding = embed(lm, surface.vertices);

@@ -29,6 +29,7 @@ struct RemeshReport {
   double mass_error = 0.0;       ///< |M_new − M_old| / M_old
   double centre_error = 0.0;     ///< |c_new − c_old| / (size of the surface's bounding box)
   double momentum_error = 0.0;   ///< |P_new − P_old| / (M_old max |v_old|), 0 at rest
+  double rest_volume_error = 0.0;  ///< |r − 1|: how far the averaged state missed the stress-free volume
   UpkeepReport upkeep;           ///< the surface upkeep before meshing, if asked for
 };
 
@@ -44,6 +45,8 @@ MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, doub
 /// - velocities interpolated in the old deformed elements (extrapolated
 ///   from the nearest outside them): exact for affine fields;
 /// - left stretch and α averaged with exact old/new overlap volumes;
+/// - the stress-free volume of the material (Body::rest_material_volume)
+///   restored by one factor on every Fe;
 /// - exact masses m = ρ V / det Fe, clamped;
 /// - conservation: masses scaled by a + g·(x − c) and velocities shifted
 ///   uniformly so that total mass, centre of mass and linear momentum equal

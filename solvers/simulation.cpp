@@ -246,8 +246,11 @@ void Simulation::step_body(std::size_t i, double max_dt) {
   time_ = saved;
   ++remeshes_;
   times_.remesh += seconds_since(start);
-  log().debug("re-mesh of '{}' at t = {:.6g} s: {} → {} elements (element {}, vertex {}, growth {:.3g})", b.name, t,
-              report.old_elements, report.new_elements, check.element, check.vertex, check.worst_growth);
+  log().debug(
+      "re-mesh of '{}' at t = {:.6g} s: {} → {} elements (element {}, vertex {}, growth {:.3g}); rest volume missed "
+      "by {:.3g}, mass by {:.3g} before correction",
+      b.name, t, report.old_elements, report.new_elements, check.element, check.vertex, check.worst_growth,
+      report.rest_volume_error, report.mass_error);
 }
 
 bool Simulation::advance_to(double t_end, const std::function<bool()>& stop) {
@@ -338,6 +341,7 @@ StateRecord Simulation::save() const {
     r.put(p + "embedding_parent", body.embedding.parent);
     r.put_matrix(p + "embedding_bary", Eigen::MatrixXd(body.embedding.bary));
     r.put(p + "pinned", b.pinned);
+    r.put(p + "rest_material_volume", body.rest_material_volume);
   }
   return r;
 }
@@ -373,6 +377,7 @@ void Simulation::load(const StateRecord& r) {
     body.embedding.parent = r.indices(p + "embedding_parent");
     body.embedding.bary = r.matrix(p + "embedding_bary", 4);
     b.pinned = r.indices(p + "pinned");
+    body.rest_material_volume = r.real(p + "rest_material_volume");
     // Every count must agree, and every id be in range, before anything uses them.
     const auto nn = body.positions.rows(), ne = body.tets.rows();
     const auto nv = static_cast<Eigen::Index>(body.embedding.parent.size());
