@@ -262,6 +262,11 @@ StateRecord read_checkpoint(const std::filesystem::path& path) {
   if (bytes.size() != length)
     throw Error(fmt::format("{}: truncated or extended checkpoint ({} bytes, the header says {})", name, bytes.size(),
                             length));
+  // The whole block must be exactly what write_checkpoint puts there (padding included).
+  std::string canonical =
+      fmt::format("{}\nformat_version {}\nlength {}\nfnv1a64 {}\n", kMagic, version, length, hash_text);
+  canonical.resize(kUserBlock, '\0');
+  if (bytes.compare(0, kUserBlock, canonical) != 0) throw Error(fmt::format("{}: damaged checkpoint header", name));
   const std::string actual = fmt::format("{:016x}", fnv1a(bytes.data() + kUserBlock, bytes.size() - kUserBlock));
   if (actual != hash_text)
     throw Error(fmt::format("{}: corrupt checkpoint: checksum {} does not match the recorded {}", name, actual,

@@ -1,0 +1,183 @@
+// Scene files: every shipped scene parses; every kind of bad scene is refused
+// with the JSON path or the file named.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+
+#include "core/surface_geometry.h"
+#include "io/scene_io.h"
+#include "tests/common/test_common.h"
+#include "tests/io/bad_mesh_fixtures.h"
+
+namespace goo {
+namespace {
+
+const std::filesystem::path kScenes = std::filesystem::path(GOO_SOURCE_DIR) / "scenes";
+
+Scene parse(const std::string& text) { return io::parse_scene(text, "test.json", kScenes); }
+
+/// A minimal valid scene with `object` as its one object.
+std::string with_object(const std::string& object, const std::string& extra = "") {
+  return fmt::format(R"({{"version": 1, {} "objects": [{}]}})", extra, object);
+}
+
+const std::string kCube =
+    R"({"primitive": {"type": "box", "size": [0.2, 0.2, 0.2]}, "material": "jiggly_gelatin", "lattice_spacing": 0.05})";
+
+TEST(Scene, EveryShippedSceneParses) {
+  int count = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(kScenes)) {
+    if (entry.path().extension() != ".json") continue;
+    SCOPED_TRACE(entry.path().string());
+    const Scene scene = io::read_scene(entry.path());
+    EXPECT_FALSE(scene.objects.empty());
+    EXPECT_EQ(scene.text.empty(), false);
+    ++count;
+  }
+  EXPECT_GE(count, 8);
+}
+
+TEST(Scene, TheBuiltInDemoIsAGooeyJellyCubeOnTheFloor) {
+  const Scene s = io::parse_scene(io::default_scene_text(), "<built-in demo>", ".");
+  ASSERT_EQ(s.objects.size(), 1u);
+  const Material jelly = material_preset("gooey_jelly");
+  EXPECT_EQ(s.objects[0].material.youngs_modulus, jelly.youngs_modulus);
+  EXPECT_EQ(s.objects[0].material.yield_stress, jelly.yield_stress);
+  EXPECT_TRUE(s.ground.has_value());
+  EXPECT_EQ(s.output.fps, 24.0);
+  EXPECT_GE(s.output.frames / s.output.fps, 2.0);  // a few seconds
+  EXPECT_NEAR(surface_integrals(*s.objects[0].surface).volume, 0.008, 1e-15);
+}
+
+TEST(Scene, PresetsSpanRigidToFluidAndFieldsOverrideThem) {
+  const auto& names = material_preset_names();
+  ASSERT_EQ(names.size(), 5u);
+  // From rigid to fluid: stiffness falls, and the fluid ones flow.
+  EXPECT_GT(material_preset(names.front()).youngs_modulus, material_preset(names.back()).youngs_modulus);
+  EXPECT_FALSE(material_preset("rigid_brick").plastic());
+  EXPECT_TRUE(material_preset("splashing_fluid").plastic());
+  const Scene s = parse(with_object(
+      R"({"primitive": {"type": "box", "size": [0.2, 0.2, 0.2]}, "material": {"preset": "gooey_jelly", "viscosity": 3, "yield_stress": "infinity"}, "lattice_spacing": 0.05})"));
+  EXPECT_EQ(s.objects[0].material.viscosity, 3.0);
+  EXPECT_FALSE(s.objects[0].material.plastic());
+  EXPECT_EQ(s.objects[0].material.youngs_modulus, material_preset("gooey_jelly").youngs_modulus);
+}
+
+TEST(Scene, TransformScalesRotatesThenTranslates) {
+  const Scene s = parse(with_object(
+      R"({"primitive": {"type": "box", "size": [1, 2, 3]}, "material": "rigid_brick", "lattice_spacing": 0.5,
+          "transform": {"scale": 0.5, "rotate_degrees": [0, 0, 90], "translate": [1, 2, 3]}})"));
+  const Eigen::AlignedBox3d box = bounding_box(s.objects[0].surface->vertices);
+  // size (0.5, 1, 1.5) turned 90° about z: (1, 0.5, 1.5), centred at (1, 2, 3).
+  EXPECT_TRUE(test::matrices_near(box.sizes(), Eigen::Vector3d(1.0, 0.5, 1.5), 1e-12));
+  EXPECT_TRUE(test::matrices_near(box.center(), Eigen::Vector3d(1, 2, 3), 1e-12));
+}
+
+TEST(Scene, IntegratorAndItsSettingsAreChosenPerScene) {
+  const Scene n = parse(with_object(kCube));
+  EXPECT_EQ(n.integrator, IntegratorKind::newmark);
+  const Scene b = parse(with_object(
+      kCube, R"("integrator": {"type": "backward_euler", "time_step": 0.02, "linear_solver": "direct"},)"));
+  EXPECT_EQ(b.integrator, IntegratorKind::backward_euler);
+  EXPECT_EQ(b.backward_euler.time_step, 0.02);
+  EXPECT_EQ(b.backward_euler.linear_solver, LinearSolver::direct);
+}
+
+struct BadScene {
+  std::string name;
+  std::string text;
+  std::string expected;  // in the message
+};
+
+void PrintTo(const BadScene& b, std::ostream* os) { *os << b.name; }
+
+class BadScenes : public ::testing::TestWithParam<BadScene> {};
+
+TEST_P(BadScenes, AreRefusedNamingTheJsonPath) {
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(GetParam().text); }, GetParam().expected));
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Scene, BadScenes,
+    ::testing::Values(
+        BadScene{"not_json", "{\"objects\": [", "test.json:1:"},
+        BadScene{"unknown_top_key", with_object(kCube, R"("gravty": [0, 0, -9.81],)"), "/gravty is not a known key"},
+        BadScene{"unknown_nested_key",
+                 with_object(
+                     R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "material": {"densty": 5}, "lattice_spacing": 0.5})"),
+                 "/objects/0/material/densty is not a known key"},
+        BadScene{"wrong_type", with_object(kCube, R"("gravity": "down",)"), "/gravity must be an array of 3 numbers"},
+        BadScene{"wrong_type_number",
+                 with_object(
+                     R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "material": {"density": "heavy"}, "lattice_spacing": 0.5})"),
+                 "/objects/0/material/density must be a number, got a string"},
+        BadScene{"negative_density",
+                 with_object(
+                     R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "material": {"density": -1}, "lattice_spacing": 0.5})"),
+                 "/objects/0/material/density must be positive, got -1"},
+        BadScene{"poisson_half",
+                 with_object(
+                     R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "material": {"poisson_ratio": 0.5}, "lattice_spacing": 0.5})"),
+                 "/objects/0/material/poisson_ratio must be in [0, 0.5), got 0.5"},
+        BadScene{"unknown_preset",
+                 with_object(R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "material": "custard", "lattice_spacing": 0.5})"),
+                 "/objects/0/material unknown material preset 'custard'"},
+        BadScene{"no_geometry", with_object(R"({"material": "rigid_brick", "lattice_spacing": 0.5})"),
+                 "/objects/0 needs exactly one of 'mesh'"},
+        BadScene{"two_geometries",
+                 with_object(
+                     R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "mesh": "x.off", "material": "rigid_brick", "lattice_spacing": 0.5})"),
+                 "/objects/0 needs exactly one of"},
+        BadScene{"no_spacing", with_object(R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "material": "rigid_brick"})"),
+                 "/objects/0 needs the key 'lattice_spacing'"},
+        BadScene{"spacing_too_big",
+                 with_object(R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "material": "rigid_brick", "lattice_spacing": 2})"),
+                 "/objects/0/lattice_spacing is larger than the object"},
+        BadScene{"no_objects", R"({"objects": []})", "/objects needs at least one object"},
+        BadScene{"unknown_integrator", with_object(kCube, R"("integrator": {"type": "rk4"},)"),
+                 "/integrator/type must be one of newmark, backward_euler, got 'rk4'"},
+        BadScene{"newmark_key_on_implicit", with_object(kCube, R"("integrator": {"type": "backward_euler", "cfl": 0.3},)"),
+                 "/integrator/cfl is not a known key"},
+        BadScene{"negative_fps", with_object(kCube, R"("output": {"fps": -24},)"), "/output/fps must be positive"},
+        BadScene{"fractional_frames", with_object(kCube, R"("output": {"frames": 2.5},)"),
+                 "/output/frames must be an integer"},
+        BadScene{"unknown_format", with_object(kCube, R"("output": {"formats": ["fbx"]},)"),
+                 "/output/formats/0 must be one of ply, obj"},
+        BadScene{"future_version", R"({"version": 2, "objects": []})", "/version is 2"},
+        BadScene{"keys_out_of_order",
+                 with_object(kCube,
+                             R"("obstacles": [{"shape": {"type": "sphere", "radius": 1}, "motion": [{"time": 1}, {"time": 0.5}]}],)"),
+                 "/obstacles/0/motion/1 must come later"},
+        BadScene{"zero_normal",
+                 with_object(kCube, R"("obstacles": [{"shape": {"type": "half_space", "normal": [0, 0, 0]}}],)"),
+                 "/obstacles/0/shape/normal must not be zero"},
+        BadScene{"implicit_with_tension",
+                 with_object(
+                     R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "material": {"surface_tension": 0.07}, "lattice_spacing": 0.5})",
+                     R"("integrator": {"type": "backward_euler"},)"),
+                 "backward_euler integrator does not have yet"},
+        BadScene{"repeated_names", fmt::format(R"({{"objects": [{}, {}]}})",
+                                               R"({"name": "a", "primitive": {"type": "box", "size": [1, 1, 1]}, "material": "rigid_brick", "lattice_spacing": 0.5})",
+                                               R"({"name": "a", "primitive": {"type": "box", "size": [1, 1, 1]}, "material": "rigid_brick", "lattice_spacing": 0.5})"),
+                 "/objects/1 repeats the object name 'a'"},
+        BadScene{"missing_mesh_file",
+                 with_object(R"({"mesh": "no/such/bunny.off", "material": "rigid_brick", "lattice_spacing": 0.5})"),
+                 "/objects/0/mesh names no readable file"},
+        BadScene{"tet_spacing",
+                 with_object(R"({"tet_mesh": "beam.mesh", "material": "rigid_brick", "lattice_spacing": 0.5})"),
+                 "/objects/0/lattice_spacing applies to surface objects only"}),
+    [](const ::testing::TestParamInfo<BadScene>& param_info) { return param_info.param.name; });
+
+TEST(Scene, AnInvalidMeshFileIsRefusedNamingTheFile) {
+  test::TempDir dir;
+  // An open surface (one face of the tetrahedron missing).
+  dir.write("open.off", test::off_tetrahedron(test::kTetVertices, "3 0 2 1\n3 0 1 3\n3 0 3 2\n", "OFF\n4 3 0\n"));
+  const std::string text =
+      with_object(R"({"mesh": "open.off", "material": "rigid_brick", "lattice_spacing": 0.1})");
+  EXPECT_TRUE(test::throws_error_containing([&] { io::parse_scene(text, "s.json", dir.path()); }, "open.off"));
+  EXPECT_TRUE(test::throws_error_containing([&] { io::read_scene(dir / "none.json"); }, "none.json: cannot open"));
+}
+
+}  // namespace
+}  // namespace goo
