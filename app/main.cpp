@@ -1,5 +1,7 @@
 // The goo command line.
 #include <fmt/format.h>
+#include <spdlog/cfg/env.h>
+
 #include <CLI/CLI.hpp>
 
 #include <iostream>
@@ -43,6 +45,8 @@ int main(int argc, char** argv) {
   run->add_option("--resume", run_options.resume, "Continue from this checkpoint (the scene is stored in it)");
   run->add_flag("--quiet", run_options.quiet, "No progress or log lines, only errors");
   run->add_flag("--overwrite", run_options.overwrite, "Replace the frames of an earlier run in the output folder");
+  goo::log();                      // create the logger, then let SPDLOG_LEVEL=debug (say) change its level
+  spdlog::cfg::load_env_levels();
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -57,7 +61,7 @@ int main(int argc, char** argv) {
   try {
     if (info->parsed()) return goo::app::run_info(mesh_path, json, std::cout);
     if (run->parsed()) {
-      if (run_options.quiet) goo::log().set_level(spdlog::level::warn);
+      if (run_options.quiet && goo::log().level() < spdlog::level::warn) goo::log().set_level(spdlog::level::warn);
       return goo::app::run_scene(run_options);
     }
     std::cout << app.help();

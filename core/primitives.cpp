@@ -73,8 +73,10 @@ TriangleMesh make_box(const Eigen::Vector3d& size, int subdivisions) {
         for (int j = 0; j <= n; ++j) {
           Eigen::Vector3d p;
           p[axis] = s * half[axis];
-          p[u] = -half[u] + size[u] * i / n;
-          p[v] = -half[v] + size[v] * j / n;
+          // The last grid line is the opposite face's plane exactly:
+          // −h + (2h·n)/n can differ from h in the last bit (h = 0.05, n = 3).
+          p[u] = i == n ? half[u] : -half[u] + size[u] * i / n;
+          p[v] = j == n ? half[v] : -half[v] + size[v] * j / n;
           grid[static_cast<std::size_t>(i * (n + 1) + j)] = b.add(p);
         }
       auto id = [&](int i, int j) { return grid[static_cast<std::size_t>(i * (n + 1) + j)]; };

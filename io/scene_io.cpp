@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -42,6 +43,22 @@ const char* type_name(const json& j) {
   }
 }
 
+/// Levenshtein distance, for "did you mean".
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
+}
+
 /// One JSON value at a path. Objects remember which keys were read, so that
 /// finish() refuses the rest (a misspelt key must not be silently ignored).
 class Node {
@@ -68,7 +85,14 @@ class Node {
   }
   Node at(const std::string& key) {
     auto node = get(key);
-    if (!node) fail(fmt::format("needs the key '{}'", key));
+    if (!node) {
+      // A key that is missing is most often misspelt: name the misspelling.
+      for (const auto& [present, value] : value_.items())
+        if (!used_.contains(present) && edit_distance(present, key) <= 2)
+          Node(value, path_ + "/" + present, source_)
+              .fail(fmt::format("is not a known key (did you mean '{}'?)", key));
+      fail(fmt::format("needs the key '{}'", key));
+    }
     return *node;
   }
   /// Refuses keys that were never asked for.
@@ -226,19 +250,30 @@ TriangleMesh read_primitive(Node n) {
   return mesh;
 }
 
+/// In a scene, light nodes are clamped to 5% of a full node's mass unless
+/// the scene says otherwise (W&T sec. 6): a lattice node just outside the
+/// surface would otherwise have no mass and stop explicit time stepping.
+constexpr double kSceneMinMassFraction = 0.05;
+
+Material scene_material(std::optional<std::string> preset) {
+  Material m = preset ? material_preset(*preset) : Material{};
+  m.min_mass_fraction = kSceneMinMassFraction;
+  return m;
+}
+
 Material read_material(Node n) {
   if (n.value().is_string()) {
     try {
-      return material_preset(n.string());
+      return scene_material(n.string());
     } catch (const Error& e) {
       n.fail(e.what());
     }
   }
   n.expect_object();
-  Material m;
+  Material m = scene_material({});
   if (auto p = n.get("preset")) {
     try {
-      m = material_preset(p->string());
+      m = scene_material(p->string());
     } catch (const Error& e) {
       p->fail(e.what());
     }
@@ -284,12 +319,21 @@ SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& 
   if (has_mesh) {
     const Node m = n.at("mesh");
     const auto path = resolve(m, base);
-    o.surface = read_surface_mesh(path);  // names the file on failure
+    try {
+      o.surface = read_surface_mesh(path);
+    } catch (const Error& e) {
+      m.fail(fmt::format("cannot be simulated: {}", e.what()));
+    }
   } else if (has_primitive) {
     o.surface = read_primitive(n.at("primitive"));
   } else {
     const Node m = n.at("tet_mesh");
-    o.tet_mesh = read_tet_mesh(resolve(m, base));
+    const auto path = resolve(m, base);
+    try {
+      o.tet_mesh = read_tet_mesh(path);
+    } catch (const Error& e) {
+      m.fail(fmt::format("cannot be simulated: {}", e.what()));
+    }
   }
   Points& x = o.surface ? o.surface->vertices : o.tet_mesh->positions;
   for (Eigen::Index i = 0; i < x.rows(); ++i) x.row(i) = transform.apply(x.row(i).transpose()).transpose();
@@ -358,8 +402,14 @@ Obstacle read_obstacle(Node n, std::size_t index, const std::filesystem::path& b
     const double r = shape.at("radius").positive();
     o.shape = make_cylinder_shape(r, shape.at("height").positive() / 2.0);
   } else {
-    const auto path = resolve(shape.at("path"), base);
-    TriangleMesh mesh = read_surface_mesh(path);
+    const Node path_node = shape.at("path");
+    const auto path = resolve(path_node, base);
+    TriangleMesh mesh;
+    try {
+      mesh = read_surface_mesh(path);
+    } catch (const Error& e) {
+      path_node.fail(fmt::format("cannot be an obstacle: {}", e.what()));
+    }
     double scale = 1.0;
     optional(shape, "scale", scale, [](const Node& v) { return v.positive(); });
     mesh.vertices *= scale;

@@ -14,37 +14,13 @@
 #include "core/surface_check.h"
 #include "io/surface_mesh_io.h"
 #include "tests/common/test_common.h"
+#include "tests/app/run_goo.h"
 #include "tests/io/bad_mesh_fixtures.h"
 
 namespace goo {
 namespace {
 
 using ::testing::HasSubstr;
-
-struct CommandResult {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string slurp(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-CommandResult goo(const std::string& arguments) {
-  test::TempDir dir;
-  const std::string command = std::string("'") + GOO_EXECUTABLE + "' " + arguments + " > '" + (dir / "out").string() +
-                              "' 2> '" + (dir / "err").string() + "'";
-  const int status = std::system(command.c_str());
-  CommandResult run;
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  run.out = slurp(dir / "out");
-  run.err = slurp(dir / "err");
-  return run;
-}
 
 TEST(GooCommand, VersionAndHelp) {
   const CommandResult version = goo("--version");

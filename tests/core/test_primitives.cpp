@@ -29,6 +29,9 @@ void expect_valid_closed(const TriangleMesh& mesh, Index euler) {
 
 TEST(Primitives, AreClosedOutwardManifoldsOfTheRightTopology) {
   for (const int n : {1, 2, 5}) expect_valid_closed(make_box({1.0, 2.0, 0.5}, n), 2);
+  // Sizes whose grid does not land on the far face in floating point
+  // (0.1·3/3 = 0.10000000000000002): the faces must still share their borders.
+  for (const int n : {3, 6, 7, 12}) expect_valid_closed(make_box({0.1, 0.2, 0.3}, n), 2);
   for (const int n : {3, 4, 7, 32}) expect_valid_closed(make_sphere(0.3, n), 2);
   for (const int n : {3, 8, 33}) expect_valid_closed(make_cylinder(0.2, 1.5, n), 2);
   for (const int n : {3, 16}) expect_valid_closed(make_torus(1.0, 0.25, n, n + 1), 0);

@@ -1,0 +1,226 @@
+// goo run end to end, as a user runs it: frames, summary, checkpoints,
+// exact restart (also after SIGINT), refusal of bad input, diagnosis of a
+// numerical failure.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <chrono>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "io/surface_mesh_io.h"
+#include "tests/app/run_goo.h"
+
+namespace goo {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+std::string quoted(const fs::path& p) { return fmt::format("'{}'", p.string()); }
+
+/// The arguments joined by spaces (fmt, not operator+: GCC 12 warns wrongly on long + chains).
+std::string args(std::initializer_list<std::string> parts) { return fmt::format("{}", fmt::join(parts, " ")); }
+
+std::string bytes_of(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// A plastic cube dropped on the floor: contacts, plastic flow, re-meshes.
+const char* kDrop = R"({
+  "ground": {"height": 0.0, "friction": 0.4},
+  "objects": [{"name": "cube", "primitive": {"type": "box", "size": [0.1, 0.1, 0.1], "subdivisions": 4},
+               "transform": {"translate": [0, 0, 0.06], "rotate_degrees": [10, 20, 0]},
+               "velocity": [0.2, 0, -1.5],
+               "material": {"preset": "splashing_fluid", "youngs_modulus": 2e4, "min_mass_fraction": 0.05},
+               "lattice_spacing": 0.03}],
+  "output": {"fps": 24, "frames": 6},
+  "checkpoint": {"every_frames": 3}
+})";
+
+void expect_same_frames(const fs::path& a, const fs::path& b, int frames) {
+  for (int f = 0; f <= frames; ++f) {
+    const std::string name = fmt::format("frames/frame_{:05d}.ply", f);
+    ASSERT_TRUE(fs::exists(a / name) && fs::exists(b / name)) << name;
+    EXPECT_TRUE(bytes_of(a / name) == bytes_of(b / name)) << name << " differs";
+  }
+}
+
+TEST(GooRun, FramesAndSummaryOfAFreelyMovingCubeAreExact) {
+  // No gravity, no obstacle: a stress-free cube translates; every frame is
+  // frame 0 moved by v t, and mass, volume and momentum do not change.
+  test::TempDir dir;
+  dir.write("free.json", R"({
+    "gravity": [0, 0, 0],
+    "objects": [{"primitive": {"type": "box", "size": [0.1, 0.1, 0.1], "subdivisions": 3},
+                 "velocity": [0.1, 0.2, -0.3], "material": "jiggly_gelatin", "lattice_spacing": 0.05}],
+    "output": {"fps": 24, "frames": 3, "formats": ["ply", "obj"]}
+  })");
+  const CommandResult run = goo(args({"run", quoted(dir / "free.json"), "--out", quoted(dir / "out"), "--quiet"}));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const TriangleMesh first = io::read_surface_mesh(dir / "out/frames/frame_00000.ply");
+  EXPECT_EQ(first.triangles.rows(), 3 * 3 * 2 * 6);
+  for (int f = 0; f <= 3; ++f) {
+    const TriangleMesh frame = io::read_surface_mesh(dir / fmt::format("out/frames/frame_{:05d}.ply", f));
+    const TriangleMesh obj = io::read_surface_mesh(dir / fmt::format("out/frames/frame_{:05d}.obj", f));
+    EXPECT_TRUE(test::matrices_near(obj.vertices, frame.vertices, 1e-15));
+    Points expected = first.vertices;
+    expected.rowwise() += Eigen::RowVector3d(0.1, 0.2, -0.3) * (f / 24.0);
+    EXPECT_TRUE(test::matrices_near(frame.vertices, expected, 1e-14)) << "frame " << f;
+  }
+  const auto summary = nlohmann::json::parse(slurp(dir / "out/summary.json"));
+  EXPECT_EQ(summary["status"], "completed");
+  EXPECT_EQ(summary["frames"], 3);
+  EXPECT_NEAR(summary["initial_volume"].get<double>(), 1e-3, 1e-17);
+  EXPECT_NEAR(summary["final_volume"].get<double>(), 1e-3, 1e-16);
+  const double mass = summary["total_mass"];
+  EXPECT_NEAR(mass, summary["initial_mass"].get<double>(), 1e-14 * mass);
+  EXPECT_GE(mass, 1.0);  // ρ V = 1 kg, plus the clamp of light nodes (min_mass_fraction)
+  EXPECT_LT(summary["momentum_drift"].get<double>(), 1e-14 * mass);
+  for (const char* key : {"wall_seconds", "steps", "remeshes", "elements", "surface_triangles", "stages"})
+    EXPECT_TRUE(summary.contains(key)) << key;
+  EXPECT_TRUE(fs::exists(dir / "out/run.h5"));
+  EXPECT_THAT(slurp(dir / "out/run.xdmf"), HasSubstr("run.h5:/frames/00003/surface_vertices"));
+  EXPECT_TRUE(fs::exists(dir / "out/checkpoints/frame_00003.h5"));  // the run's end
+}
+
+TEST(GooRun, ResumingContinuesBitwiseIdentically) {
+  test::TempDir dir;
+  dir.write("drop.json", kDrop);
+  const std::string scene = quoted(dir / "drop.json");
+  ASSERT_EQ(goo(args({"run", scene, "--out", quoted(dir / "a"), "--quiet"})).exit_code, 0);
+  ASSERT_EQ(goo(args({"run", scene, "--frames 3 --out", quoted(dir / "b"), "--quiet"})).exit_code, 0);
+  const CommandResult resumed = goo(args({"run --resume", quoted(dir / "b/checkpoints/frame_00003.h5"), "--out", quoted(dir / "b"), "--quiet"}));
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  expect_same_frames(dir / "a", dir / "b", 6);
+  EXPECT_TRUE(bytes_of(dir / "a/checkpoints/frame_00006.h5") == bytes_of(dir / "b/checkpoints/frame_00006.h5"));
+  const auto summary = nlohmann::json::parse(slurp(dir / "a/summary.json"));
+  EXPECT_GT(summary["remeshes"].get<int>(), 0);  // the case exercises re-meshing
+  // goo info describes the checkpoint.
+  const CommandResult info = goo(args({"info", quoted(dir / "a/checkpoints/frame_00003.h5")}));
+  EXPECT_EQ(info.exit_code, 0);
+  EXPECT_THAT(info.out, HasSubstr("frame          3"));
+  EXPECT_THAT(info.out, HasSubstr("cube:"));
+}
+
+TEST(GooRun, AfterSigintInTheMiddleOfAFrameResumingIsBitwiseIdentical) {
+  test::TempDir dir;
+  dir.write("drop.json", kDrop);
+  ASSERT_EQ(goo(args({"run", quoted(dir / "drop.json"), "--out", quoted(dir / "a"), "--quiet"})).exit_code, 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    const std::string out = (dir / "c").string(), scene = (dir / "drop.json").string();
+    ::freopen("/dev/null", "w", stderr);
+    ::execl(GOO_EXECUTABLE, GOO_EXECUTABLE, "run", scene.c_str(), "--out", out.c_str(), "--quiet",
+            static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  // Interrupt as soon as frame 1 is out: in the middle of frame 2.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(300);
+  while (!fs::exists(dir / "c/frames/frame_00001.ply") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  ::kill(child, SIGINT);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  ASSERT_EQ(WEXITSTATUS(status), 130) << "the run ended before the signal arrived";
+  EXPECT_FALSE(fs::exists(dir / "c/frames/frame_00006.ply"));
+  EXPECT_EQ(nlohmann::json::parse(slurp(dir / "c/summary.json"))["status"], "interrupted");
+  // The checkpoint of the last whole frame.
+  fs::path latest;
+  for (const auto& entry : fs::directory_iterator(dir / "c/checkpoints"))
+    if (latest.empty() || entry.path() > latest) latest = entry.path();
+  ASSERT_FALSE(latest.empty());
+  const CommandResult resumed = goo(args({"run --resume", quoted(latest), "--out", quoted(dir / "c"), "--quiet"}));
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  expect_same_frames(dir / "a", dir / "c", 6);
+  EXPECT_TRUE(bytes_of(dir / "a/checkpoints/frame_00006.h5") == bytes_of(dir / "c/checkpoints/frame_00006.h5"));
+}
+
+TEST(GooRun, BadScenesExitTwoNamingThePathAndWriteNothing) {
+  test::TempDir dir;
+  dir.write("open.off", "OFF\n4 3 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n");
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {R"({"objects": [{"primitive": {"type": "box", "size": [1, 1, 1]}, "materal": "rigid_brick", "lattice_spacing": 0.5}]})",
+       "/objects/0/materal is not a known key"},
+      {R"({"objects": [{"primitive": {"type": "box", "size": [1, 1, 1]}, "material": {"poisson_ratio": 0.5}, "lattice_spacing": 0.5}]})",
+       "/objects/0/material/poisson_ratio must be in [0, 0.5)"},
+      {R"({"gravity": [0, 0], "objects": []})", "/gravity must be an array of 3 numbers"},
+      {R"({"objects": [{"mesh": "missing.off", "material": "rigid_brick", "lattice_spacing": 0.5}]})",
+       "/objects/0/mesh names no readable file"},
+      {R"({"objects": [{"mesh": "open.off", "material": "rigid_brick", "lattice_spacing": 0.5}]})", "open.off"},
+  };
+  for (const auto& [text, expected] : cases) {
+    SCOPED_TRACE(expected);
+    dir.write("bad.json", text);
+    const CommandResult run = goo(args({"run", quoted(dir / "bad.json"), "--out", quoted(dir / "out")}));
+    EXPECT_EQ(run.exit_code, 2);
+    EXPECT_THAT(run.err, HasSubstr(expected));
+    EXPECT_THAT(run.err, HasSubstr("bad.json"));
+    EXPECT_FALSE(fs::exists(dir / "out"));
+  }
+  EXPECT_EQ(goo(args({"run", quoted(dir / "none.json"), "--out", quoted(dir / "out")})).exit_code, 2);
+  EXPECT_FALSE(fs::exists(dir / "out"));
+  // A damaged checkpoint is refused too, before anything is written.
+  dir.write("broken.h5", "goo-checkpoint\nformat_version 1\nlength 5\n");
+  const CommandResult resumed = goo(args({"run --resume", quoted(dir / "broken.h5"), "--out", quoted(dir / "out")}));
+  EXPECT_EQ(resumed.exit_code, 2);
+  EXPECT_THAT(resumed.err, HasSubstr("broken.h5"));
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+TEST(GooRun, AnEarlierRunIsNotOverwrittenUnlessAsked) {
+  test::TempDir dir;
+  dir.write("drop.json", kDrop);
+  const std::string scene = quoted(dir / "drop.json");
+  ASSERT_EQ(goo(args({"run", scene, "--frames 1 --out", quoted(dir / "a"), "--quiet"})).exit_code, 0);
+  const std::string frame = bytes_of(dir / "a/frames/frame_00001.ply");
+  const CommandResult again = goo(args({"run", scene, "--frames 1 --out", quoted(dir / "a")}));
+  EXPECT_EQ(again.exit_code, 2);
+  EXPECT_THAT(again.err, HasSubstr("--overwrite"));
+  EXPECT_EQ(bytes_of(dir / "a/frames/frame_00001.ply"), frame);
+  EXPECT_EQ(goo(args({"run", scene, "--frames 1 --overwrite --out", quoted(dir / "a"), "--quiet"})).exit_code, 0);
+}
+
+TEST(GooRun, ANumericalFailureIsDiagnosedAndKeepsTheLastGoodCheckpoint) {
+  test::TempDir dir;
+  // The cube falls from rest; 0.6 m/s is passed after about 0.06 s (frame 2 at 24 fps).
+  dir.write("fall.json", R"({
+    "objects": [{"primitive": {"type": "box", "size": [0.1, 0.1, 0.1], "subdivisions": 3},
+                 "material": "jiggly_gelatin", "lattice_spacing": 0.05}],
+    "output": {"fps": 24, "frames": 10},
+    "checkpoint": {"every_frames": 1},
+    "limits": {"max_speed": 0.6}
+  })");
+  const CommandResult run = goo(args({"run", quoted(dir / "fall.json"), "--out", quoted(dir / "out"), "--quiet"}));
+  EXPECT_EQ(run.exit_code, 3);
+  EXPECT_THAT(run.err, HasSubstr("numerical failure at step"));
+  EXPECT_THAT(run.err, HasSubstr("limits.max_speed"));
+  EXPECT_THAT(run.err, HasSubstr("of element"));
+  EXPECT_TRUE(fs::exists(dir / "out/checkpoints/frame_00001.h5"));
+  EXPECT_EQ(goo(args({"info", quoted(dir / "out/checkpoints/frame_00001.h5")})).exit_code, 0);
+  EXPECT_EQ(nlohmann::json::parse(slurp(dir / "out/summary.json"))["status"], "failed");
+}
+
+TEST(GooRun, WithoutASceneRunsTheBuiltInDemo) {
+  test::TempDir dir;
+  const CommandResult run = goo(args({"run --frames 1 --out", quoted(dir / "demo")}));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(fs::exists(dir / "demo/frames/frame_00001.ply"));
+  const auto summary = nlohmann::json::parse(slurp(dir / "demo/summary.json"));
+  EXPECT_EQ(summary["scene"], "<built-in demo>");
+  EXPECT_THAT(run.err, HasSubstr("frame 1/1"));  // progress
+}
+
+}  // namespace
+}  // namespace goo
