@@ -454,6 +454,7 @@ void read_integrator(Node n, Scene& s) {
     BackwardEulerSettings& bs = s.backward_euler;
     optional(n, "time_step", bs.time_step, [](const Node& v) { return v.positive(); });
     optional(n, "tolerance", bs.tolerance, [](const Node& v) { return v.positive(); });
+    optional(n, "acceptable_tolerance", bs.acceptable_tolerance, [](const Node& v) { return v.positive(); });
     optional(n, "max_newton_iterations", bs.max_newton_iterations, [](const Node& v) { return v.integer(1, 1000); });
     optional(n, "max_halvings", bs.max_halvings, [](const Node& v) { return v.integer(0, 60); });
     optional(n, "linear_solver", bs.linear_solver, [](const Node& v) {

@@ -215,7 +215,13 @@ void Simulation::step_body(std::size_t i, double max_dt) {
   if (s.newmark) {
     last_dt_ = s.newmark->step(b.body, max_dt).dt;
   } else {
-    last_dt_ = s.backward_euler->step(b.body, max_dt).dt;
+    try {
+      last_dt_ = s.backward_euler->step(b.body, max_dt).dt;
+    } catch (const Error& e) {  // Newton failed even at the smallest Δt: not bad input
+      throw NumericalFailure(fmt::format("numerical failure at step {} (t = {:.6g} s): body '{}': {}; try a smaller "
+                                         "backward_euler.time_step or more max_newton_iterations",
+                                         steps_, time_, b.name, e.what()));
+    }
   }
   ++steps_;
   times_.integrate += seconds_since(start);
