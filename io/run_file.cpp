@@ -43,6 +43,21 @@ long long rows_of(hid_t group, const char* name) {
   return static_cast<long long>(dims[0]);
 }
 
+/// One XDMF grid: elements of `corners` nodes and XYZ points, both datasets of run.h5.
+std::string uniform_grid(const char* name, const char* topology, int corners, long long elements,
+                         const std::string& elements_set, long long points, const std::string& points_set) {
+  return fmt::format(
+      "    <Grid Name=\"{0}\" GridType=\"Uniform\">\n"
+      "     <Topology TopologyType=\"{1}\" NumberOfElements=\"{3}\">\n"
+      "      <DataItem Dimensions=\"{3} {2}\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">run.h5:{4}</DataItem>\n"
+      "     </Topology>\n"
+      "     <Geometry GeometryType=\"XYZ\">\n"
+      "      <DataItem Dimensions=\"{5} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">run.h5:{6}</DataItem>\n"
+      "     </Geometry>\n"
+      "    </Grid>\n",
+      name, topology, corners, elements, elements_set, points, points_set);
+}
+
 }  // namespace
 
 RunFile::RunFile(const std::filesystem::path& folder, int first_frame) : folder_(folder) {
@@ -119,26 +134,10 @@ void RunFile::write_xdmf() const {
     const std::string g = frame_group(f.frame);
     x << fmt::format("   <Grid Name=\"frame {:05d}\" GridType=\"Collection\" CollectionType=\"Spatial\">\n", f.frame);
     x << fmt::format("    <Time Value=\"{:.17g}\"/>\n", f.time);
-    x << "    <Grid Name=\"surface\" GridType=\"Uniform\">\n";
-    x << fmt::format("     <Topology TopologyType=\"Triangle\" NumberOfElements=\"{}\">\n", f.triangles);
-    x << fmt::format("      <DataItem Dimensions=\"{} 3\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">run.h5:{}"
-                     "/surface_triangles</DataItem>\n     </Topology>\n",
-                     f.triangles, g);
-    x << "     <Geometry GeometryType=\"XYZ\">\n";
-    x << fmt::format("      <DataItem Dimensions=\"{} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">run.h5:{}"
-                     "/surface_vertices</DataItem>\n     </Geometry>\n    </Grid>\n",
-                     f.vertices, g);
-    if (f.tets > 0) {
-      x << "    <Grid Name=\"tets\" GridType=\"Uniform\">\n";
-      x << fmt::format("     <Topology TopologyType=\"Tetrahedron\" NumberOfElements=\"{}\">\n", f.tets);
-      x << fmt::format("      <DataItem Dimensions=\"{} 4\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">run.h5:{}"
-                       "/tet_elements</DataItem>\n     </Topology>\n",
-                       f.tets, g);
-      x << "     <Geometry GeometryType=\"XYZ\">\n";
-      x << fmt::format("      <DataItem Dimensions=\"{} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">run.h5:"
-                       "{}/tet_positions</DataItem>\n     </Geometry>\n    </Grid>\n",
-                       f.nodes, g);
-    }
+    x << uniform_grid("surface", "Triangle", 3, f.triangles, g + "/surface_triangles", f.vertices,
+                      g + "/surface_vertices");
+    if (f.tets > 0)
+      x << uniform_grid("tets", "Tetrahedron", 4, f.tets, g + "/tet_elements", f.nodes, g + "/tet_positions");
     x << "   </Grid>\n";
   }
   x << "  </Grid>\n </Domain>\n</Xdmf>\n";

@@ -89,7 +89,18 @@ TEST(GooRun, FramesAndSummaryOfAFreelyMovingCubeAreExact) {
   for (const char* key : {"wall_seconds", "steps", "remeshes", "elements", "surface_triangles", "stages"})
     EXPECT_TRUE(summary.contains(key)) << key;
   EXPECT_TRUE(fs::exists(dir / "out/run.h5"));
-  EXPECT_THAT(slurp(dir / "out/run.xdmf"), HasSubstr("run.h5:/frames/00003/surface_vertices"));
+  // Every dataset the XDMF sidecar points at is in run.h5 (h5dump, an independent reader).
+  const std::string xdmf = slurp(dir / "out/run.xdmf");
+  EXPECT_THAT(xdmf, HasSubstr("run.h5:/frames/00003/surface_vertices"));
+  ASSERT_EQ(std::system(fmt::format("h5dump -n {} > {}", quoted(dir / "out/run.h5"), quoted(dir / "names")).c_str()), 0);
+  const std::string names = slurp(dir / "names");
+  int referenced = 0;
+  for (std::size_t at = xdmf.find("run.h5:"); at != std::string::npos; at = xdmf.find("run.h5:", at + 1)) {
+    const std::string path = xdmf.substr(at + 7, xdmf.find('<', at) - at - 7);
+    EXPECT_THAT(names, HasSubstr("dataset    " + path)) << path;
+    ++referenced;
+  }
+  EXPECT_EQ(referenced, 2 * 4);  // triangles and vertices of frames 0 to 3
   EXPECT_TRUE(fs::exists(dir / "out/checkpoints/frame_00003.h5"));  // the run's end
 }
 
