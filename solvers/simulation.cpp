@@ -198,6 +198,8 @@ void Simulation::check_state(std::size_t i) const {
   }
   if (finite && worst_speed <= scene_.limits.max_speed) return;
   const Index corner = body.incidence.corners[at(body.incidence.offsets[at(worst)])];
+  const Stepper& s = *steppers_[i];
+  const double t = s.newmark ? s.newmark->time() : s.backward_euler->time();
   const std::string what = finite ? fmt::format("moves at {:.4g} m/s, above limits.max_speed = {:.4g} m/s (an energy "
                                                 "blow-up)",
                                                 worst_speed, scene_.limits.max_speed)
@@ -205,7 +207,7 @@ void Simulation::check_state(std::size_t i) const {
   throw NumericalFailure(fmt::format(
       "numerical failure at step {} (t = {:.6g} s, Δt = {:.3g} s): body '{}', node {} of element {} {}; lower the time "
       "step (newmark.cfl, newmark.max_time_step or backward_euler.time_step) or check the material",
-      steps_, time_, last_dt_, bodies_[i].name, worst, corner / 4, what));
+      steps_, t, last_dt_, bodies_[i].name, worst, corner / 4, what));
 }
 
 void Simulation::step_body(std::size_t i, double max_dt) {
@@ -220,7 +222,7 @@ void Simulation::step_body(std::size_t i, double max_dt) {
     } catch (const Error& e) {  // Newton failed even at the smallest Δt: not bad input
       throw NumericalFailure(fmt::format("numerical failure at step {} (t = {:.6g} s): body '{}': {}; try a smaller "
                                          "backward_euler.time_step or more max_newton_iterations",
-                                         steps_, time_, b.name, e.what()));
+                                         steps_ + 1, s.backward_euler->time(), b.name, e.what()));
     }
   }
   ++steps_;
