@@ -142,10 +142,15 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
       if (fixed_[at(n)]) gradient.row(n).setZero();
   };
 
-  // Force scale of the scene: gravity on the heaviest node, elastic forces at xⁿ.
+  // Force scale of the scene: gravity on the heaviest node, elastic forces
+  // at xⁿ, and the inertial force m|v|/Δt (the only one for a stress-free
+  // body thrown without gravity).
   elastic_.evaluate(body, xn, 0.0, f);
+  double inertia = 0.0;
+  for (Index n = 0; n < nn; ++n)
+    if (!fixed_[at(n)]) inertia = std::max(inertia, m[n] * body.velocities.row(n).norm() / dt);
   const double scale =
-      std::max({m.maxCoeff() * settings_.gravity.norm(), max_abs_free(f, fixed_), 1e-300});
+      std::max({m.maxCoeff() * settings_.gravity.norm(), max_abs_free(f, fixed_), inertia, 1e-300});
 
   if (!hessian_.matches(body.tets, nn)) hessian_.build(body.tets, nn);
   if (factor_->analysed_for != hessian_.builds()) factor_->analysed_for = -1;

@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 #include "core/error.h"
 #include "core/log.h"
@@ -243,8 +244,18 @@ void Simulation::step_body(std::size_t i, double max_dt) {
   start = Clock::now();
   RemeshReport report;
   const double t = s.newmark ? s.newmark->time() : s.backward_euler->time();
-  MeshedBody meshed = remesh(b.body, b.body.surface(), b.h, &report,
-                             scene_.remesh.upkeep ? &scene_.remesh.upkeep_settings : nullptr);
+  std::optional<MeshedBody> attempt;
+  try {
+    attempt = remesh(b.body, b.body.surface(), b.h, &report,
+                     scene_.remesh.upkeep ? &scene_.remesh.upkeep_settings : nullptr);
+  } catch (const Error& e) {
+    // A mesh with no valid element left (every element inverted) cannot
+    // carry its state across; the elasticity turns the elements back first.
+    log().debug("re-mesh of '{}' postponed: {}", b.name, e.what());
+    times_.remesh += seconds_since(start);
+    return;
+  }
+  MeshedBody& meshed = *attempt;
   b.body = std::move(meshed.body);
   b.pinned = nodes_in(b.body.positions, b.regions);
   for (const Index n : b.pinned) b.body.velocities.row(n).setZero();

@@ -1,0 +1,84 @@
+// Cases that break simulators (#8, "hard cases"): each must finish without a
+// non-finite value or a runaway (Simulation throws NumericalFailure), keep
+// at least 95% of its volume, and keep its mass exactly. Not here yet, because
+// goo does not pass them: every element initially inverted (a mirrored body:
+// Newmark runs away, Newton fails at t = 0) and a 50 m/s impact (runaway at
+// 1.9 ms).
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+
+#include "core/surface_geometry.h"
+#include "io/scene_io.h"
+#include "solvers/simulation.h"
+#include "tests/common/test_common.h"
+
+namespace goo {
+namespace {
+
+Scene scene_from(const std::string& text) { return io::parse_scene(text, "hard.json", "."); }
+
+/// A 0.1 m cube on the lattice (h = 0.025) with the given material, motion and extra scene keys.
+std::string cube(const std::string& material, const std::string& object_extra = "", const std::string& extra = "") {
+  return fmt::format(R"({{ {} "objects": [{{"primitive": {{"type": "box", "size": [0.1, 0.1, 0.1], "subdivisions": 4}},
+                          "material": {}, "lattice_spacing": 0.025 {}}}]}})",
+                     extra, material, object_extra);
+}
+
+void expect_kept(const Simulation& sim, const SimulationTotals& start, double volume_fraction = 0.95) {
+  const SimulationTotals end = sim.totals();
+  EXPECT_NEAR(end.mass, start.mass, 1e-12 * start.mass);
+  EXPECT_GE(end.volume, volume_fraction * std::abs(start.volume));
+  EXPECT_LE(end.volume, (2.0 - volume_fraction) * std::abs(start.volume));
+}
+
+TEST(HardCases, AStrandOneHundredthOfTheSpacingHangsUnderGravity) {
+  const Scene scene = scene_from(R"({"objects": [{"primitive": {"type": "box", "size": [0.0005, 0.0005, 0.2], "subdivisions": 2},
+      "material": "gooey_jelly", "lattice_spacing": 0.05,
+      "pinned": [{"box": {"min": [-1, -1, 0.07], "max": [1, 1, 1]}}]}]})");
+  Simulation sim(scene);
+  const SimulationTotals start = sim.totals();
+  for (int frame = 1; frame <= 12; ++frame) sim.advance_to(frame / 24.0);
+  expect_kept(sim, start);
+}
+
+TEST(HardCases, VeryStiffWithBackwardEulerAtALargeStep) {
+  // E = 10⁸ Pa at Δt = 10 ms, about 10³ times the explicit limit of this
+  // mesh; thrown and spinning with no external force: the momentum stays.
+  const Scene scene = scene_from(cube(R"({"density": 1000, "youngs_modulus": 1e8, "poisson_ratio": 0.3, "viscosity": 100})",
+                                      R"(, "velocity": [1, 0, 0], "angular_velocity": [0, 0, 20])",
+                                      R"("gravity": [0, 0, 0], "integrator": {"type": "backward_euler", "time_step": 0.01},)"));
+  Simulation sim(scene);
+  const SimulationTotals start = sim.totals();
+  sim.advance_to(0.2);
+  expect_kept(sim, start);
+  // Newton stops at a residual of 1e-8 of the force scale per step, so the
+  // momentum moves by at most that per step: 20 steps.
+  EXPECT_LT((sim.totals().momentum - start.momentum).norm(), 20 * 1e-8 * start.momentum.norm() + 1e-12);
+  EXPECT_LE(sim.totals().max_speed, start.max_speed * (1.0 + 1e-9));  // no energy from nowhere
+}
+
+TEST(HardCases, NearlyIncompressibleDrop) {
+  const Scene scene = scene_from(cube(R"({"preset": "jiggly_gelatin", "poisson_ratio": 0.49})",
+                                      R"(, "transform": {"translate": [0, 0, 0.06]}, "velocity": [0, 0, -1])",
+                                      R"("ground": {"height": 0, "friction": 0.5},)"));
+  Simulation sim(scene);
+  const SimulationTotals start = sim.totals();
+  for (int frame = 1; frame <= 6; ++frame) sim.advance_to(frame / 24.0);
+  expect_kept(sim, start, 0.99);  // ν = 0.49: the bulk modulus is 17 times the shear modulus
+}
+
+TEST(HardCases, FlowFastEnoughToRemeshEveryFewSteps) {
+  const Scene scene = scene_from(cube(R"({"preset": "splashing_fluid", "flow_rate": 5000})",
+                                      R"(, "transform": {"translate": [0, 0, 0.06]}, "velocity": [0, 0, -1])",
+                                      R"("ground": {"height": 0, "friction": 0.5},)"));
+  Simulation sim(scene);
+  const SimulationTotals start = sim.totals();
+  for (int frame = 1; frame <= 6; ++frame) sim.advance_to(frame / 24.0);
+  EXPECT_GE(sim.remeshes(), 6);
+  EXPECT_LE(sim.steps(), 40 * sim.remeshes());
+  expect_kept(sim, start);
+}
+
+}  // namespace
+}  // namespace goo
