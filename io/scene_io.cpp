@@ -337,9 +337,6 @@ SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& 
   }
   Points& x = o.surface ? o.surface->vertices : o.tet_mesh->positions;
   for (Eigen::Index i = 0; i < x.rows(); ++i) x.row(i) = transform.apply(x.row(i).transpose()).transpose();
-  if (transform.scale.prod() < 0.0) {
-    // Never reached: scales are positive. Kept out of the way of orientation.
-  }
   o.material = read_material(n.at("material"));
   if (o.surface) {
     o.lattice_spacing = n.at("lattice_spacing").positive();

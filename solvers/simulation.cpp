@@ -96,9 +96,20 @@ std::vector<Index> nodes_in(const Points& x, const std::vector<PinnedRegion>& re
 
 }  // namespace
 
+/// The body's integrator, one of the two.
 struct Simulation::Stepper {
   std::unique_ptr<NewmarkIntegrator> newmark;
   std::unique_ptr<BackwardEulerIntegrator> backward_euler;
+
+  [[nodiscard]] double time() const { return newmark ? newmark->time() : backward_euler->time(); }
+  void set_time(double t) {
+    if (newmark) newmark->set_time(t);
+    if (backward_euler) backward_euler->set_time(t);
+  }
+  void invalidate() {
+    if (newmark) newmark->invalidate();
+    if (backward_euler) backward_euler->invalidate();
+  }
 };
 
 Simulation::Simulation(const Scene& scene) : scene_(scene) {
@@ -140,12 +151,12 @@ Simulation::Simulation(const Scene& scene) : scene_(scene) {
     bodies_.push_back(std::move(b));
   }
   steppers_.resize(bodies_.size());
-  for (std::size_t i = 0; i < bodies_.size(); ++i) attach(i);
+  for (std::size_t i = 0; i < bodies_.size(); ++i) attach(i, time_);
 }
 
 Simulation::~Simulation() = default;
 
-void Simulation::attach(std::size_t i) {
+void Simulation::attach(std::size_t i, double time) {
   Constraints constraints;
   constraints.pinned = bodies_[i].pinned;
   constraints.obstacles = scene_.obstacles;
@@ -160,21 +171,17 @@ void Simulation::attach(std::size_t i) {
     NewmarkSettings settings = scene_.newmark;
     settings.gravity = scene_.gravity;
     stepper->newmark = std::make_unique<NewmarkIntegrator>(settings, std::move(constraints));
-    stepper->newmark->set_time(time_);
   } else {
     BackwardEulerSettings settings = scene_.backward_euler;
     settings.gravity = scene_.gravity;
     stepper->backward_euler = std::make_unique<BackwardEulerIntegrator>(settings, std::move(constraints));
-    stepper->backward_euler->set_time(time_);
   }
+  stepper->set_time(time);
   steppers_[i] = std::move(stepper);
 }
 
 void Simulation::make_restart_point() {
-  for (auto& s : steppers_) {
-    if (s->newmark) s->newmark->invalidate();
-    if (s->backward_euler) s->backward_euler->invalidate();
-  }
+  for (auto& s : steppers_) s->invalidate();
 }
 
 void Simulation::check_state(std::size_t i) const {
@@ -199,8 +206,7 @@ void Simulation::check_state(std::size_t i) const {
   }
   if (finite && worst_speed <= scene_.limits.max_speed) return;
   const Index corner = body.incidence.corners[at(body.incidence.offsets[at(worst)])];
-  const Stepper& s = *steppers_[i];
-  const double t = s.newmark ? s.newmark->time() : s.backward_euler->time();
+  const double t = steppers_[i]->time();
   const std::string what = finite ? fmt::format("moves at {:.4g} m/s, above limits.max_speed = {:.4g} m/s (an energy "
                                                 "blow-up)",
                                                 worst_speed, scene_.limits.max_speed)
@@ -243,7 +249,7 @@ void Simulation::step_body(std::size_t i, double max_dt) {
   // W&T fig. 8, last stage: a new lattice mesh around the current surface.
   start = Clock::now();
   RemeshReport report;
-  const double t = s.newmark ? s.newmark->time() : s.backward_euler->time();
+  const double t = s.time();
   std::optional<MeshedBody> attempt;
   try {
     attempt = remesh(b.body, b.body.surface(), b.h, &report,
@@ -259,10 +265,7 @@ void Simulation::step_body(std::size_t i, double max_dt) {
   b.body = std::move(meshed.body);
   b.pinned = nodes_in(b.body.positions, b.regions);
   for (const Index n : b.pinned) b.body.velocities.row(n).setZero();
-  const double saved = time_;
-  time_ = t;
-  attach(i);
-  time_ = saved;
+  attach(i, t);
   ++remeshes_;
   times_.remesh += seconds_since(start);
   log().debug(
@@ -274,23 +277,17 @@ void Simulation::step_body(std::size_t i, double max_dt) {
 
 bool Simulation::advance_to(double t_end, const std::function<bool()>& stop) {
   for (std::size_t i = 0; i < bodies_.size(); ++i) {
-    Stepper& s = *steppers_[i];
-    double t = s.newmark ? s.newmark->time() : s.backward_euler->time();
+    double t = steppers_[i]->time();
     bool stopped = false;
-    step_until(t, t_end, [&](double max_dt) {
-      if (stopped) {
-        t = t_end;  // leaves the loop; the state stays where it was
-        return;
-      }
-      step_body(i, max_dt);
-      Stepper& now = *steppers_[i];  // a re-mesh replaces the integrator
-      t = now.newmark ? now.newmark->time() : now.backward_euler->time();
-      if (stop && stop()) stopped = true;
-    });
-    if (stopped) return false;
-    // Land each integrator's clock exactly on t_end, as step_until did for t.
-    if (steppers_[i]->newmark) steppers_[i]->newmark->set_time(t_end);
-    if (steppers_[i]->backward_euler) steppers_[i]->backward_euler->set_time(t_end);
+    step_until(
+        t, t_end,
+        [&](double max_dt) {
+          step_body(i, max_dt);
+          t = steppers_[i]->time();  // a re-mesh replaces the integrator, not its clock
+        },
+        [&] { return stopped = stop && stop(); });
+    if (stopped) return false;  // the state stays between steps
+    steppers_[i]->set_time(t_end);  // exactly, as step_until landed t
   }
   time_ = t_end;
   return true;
@@ -413,7 +410,7 @@ void Simulation::load(const StateRecord& r) {
     body.incidence = NodeIncidence::build(body.tets, static_cast<Index>(nn));
     b.body = std::move(body);
   }
-  for (std::size_t i = 0; i < bodies_.size(); ++i) attach(i);
+  for (std::size_t i = 0; i < bodies_.size(); ++i) attach(i, time_);
 }
 
 }  // namespace goo

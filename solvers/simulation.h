@@ -92,7 +92,7 @@ class Simulation {
 
  private:
   struct Stepper;
-  void attach(std::size_t i);  ///< (re)builds body i's constraints and integrator
+  void attach(std::size_t i, double time);  ///< (re)builds body i's constraints and integrator, its clock at `time`
   void step_body(std::size_t i, double max_dt);
   void check_state(std::size_t i) const;
 
