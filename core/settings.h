@@ -49,6 +49,10 @@ struct BackwardEulerSettings {
   int max_halvings = 8;  ///< a step that does not converge is retried at half Δt
   LinearSolver linear_solver = LinearSolver::automatic;
   int pcg_max_iterations = 25;  ///< lagged_pcg: more than this and the factor is renewed
+  /// Umbrella smoothing of the surface after each step (when σ > 0), as
+  /// NewmarkSettings::smoothing. Surface tension itself is always the
+  /// area-gradient form here: it is part of the minimised energy.
+  double smoothing = 0.0;
 };
 
 struct RemeshThresholds {

@@ -560,18 +560,18 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::f
                                                               : SurfaceTensionForm::area_gradient;
     });
     optional(*st, "smoothing", s.newmark.smoothing, [](const Node& v) { return v.non_negative(); });
+    s.backward_euler.smoothing = s.newmark.smoothing;
+    if (s.integrator == IntegratorKind::backward_euler && s.newmark.surface_tension_form == SurfaceTensionForm::paper)
+      st->at("form").fail(
+          "is 'paper', which is not the gradient of an energy; the backward_euler integrator minimises one "
+          "(use area_gradient, or the newmark integrator)");
     st->finish();
   }
   if (auto o = root.get("obstacles"))
     for (std::size_t i = 0; i < o->size(); ++i) s.obstacles.push_back(read_obstacle(o->element(i), i, base_folder));
   Node objects = root.at("objects");
   if (objects.size() == 0) objects.fail("needs at least one object");
-  for (std::size_t i = 0; i < objects.size(); ++i) {
-    s.objects.push_back(read_object(objects.element(i), i, base_folder));
-    if (s.integrator == IntegratorKind::backward_euler && s.objects.back().material.surface_tension > 0.0)
-      objects.element(i).fail(
-          "has surface tension, which the backward_euler integrator does not have yet (use newmark)");
-  }
+  for (std::size_t i = 0; i < objects.size(); ++i) s.objects.push_back(read_object(objects.element(i), i, base_folder));
   std::set<std::string> names;
   for (std::size_t i = 0; i < s.objects.size(); ++i)
     if (!names.insert(s.objects[i].name).second)

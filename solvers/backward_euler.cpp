@@ -118,6 +118,16 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
       }
     });
   }
+  // Surface tension (W&T sec. 7) as the energy σ A(W x) (algorithms.md,
+  // "Surface tension"): its Hessian couples the nodes of each triangle's
+  // corners' parents, which the pattern includes.
+  const bool tension = EmbeddedTension::active(body);
+  const SurfaceNodes surface_nodes = tension ? SurfaceNodes::of(body) : SurfaceNodes{};
+  std::vector<Matrix9d> surface_blocks;
+  auto forces = [&](const Points& y, Points& out) {
+    elastic_.evaluate(body, y, 0.0, out);
+    if (tension) tension_.add_forces(body, y, SurfaceTensionForm::area_gradient, out);
+  };
   Points scratch;
   auto energy = [&](const Points& y) {
     double inertia = 0.0;
@@ -128,11 +138,12 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
       apply_blocks(body, damping, v, scratch);
       dissipation = 0.5 * dt * (v.array() * scratch.array()).sum();
     }
-    return 0.5 * inertia / (dt * dt) + elastic_energy(body, y) + dissipation;
+    const double surface = tension ? EmbeddedTension::energy(body, y) : 0.0;
+    return 0.5 * inertia / (dt * dt) + elastic_energy(body, y) + surface + dissipation;
   };
   Points f, gradient(nn, 3), damping_force;
   auto evaluate_gradient = [&](const Points& y) {
-    elastic_.evaluate(body, y, 0.0, f);
+    forces(y, f);
     for (Index n = 0; n < nn; ++n) gradient.row(n) = m[n] * (y.row(n) - target.row(n)) / (dt * dt) - f.row(n);
     if (viscous) {
       apply_blocks(body, damping, (y - xn) / dt, damping_force);
@@ -142,17 +153,17 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
       if (fixed_[at(n)]) gradient.row(n).setZero();
   };
 
-  // Force scale of the scene: gravity on the heaviest node, elastic forces
-  // at xⁿ, and the inertial force m|v|/Δt (the only one for a stress-free
-  // body thrown without gravity).
-  elastic_.evaluate(body, xn, 0.0, f);
+  // Force scale of the scene: gravity on the heaviest node, elastic and
+  // surface forces at xⁿ, and the inertial force m|v|/Δt (the only one for
+  // a stress-free body thrown without gravity).
+  forces(xn, f);
   double inertia = 0.0;
   for (Index n = 0; n < nn; ++n)
     if (!fixed_[at(n)]) inertia = std::max(inertia, m[n] * body.velocities.row(n).norm() / dt);
   const double scale =
       std::max({m.maxCoeff() * settings_.gravity.norm(), max_abs_free(f, fixed_), inertia, 1e-300});
 
-  if (!hessian_.matches(body.tets, nn)) hessian_.build(body.tets, nn);
+  if (!hessian_.matches(body.tets, nn, surface_nodes.nodes)) hessian_.build(body.tets, nn, surface_nodes.nodes);
   if (factor_->analysed_for != hessian_.builds()) factor_->analysed_for = -1;
   std::vector<Matrix12> blocks(at(ne));
   Eigen::VectorXd diagonal(3 * nn);
@@ -174,8 +185,8 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
       body.positions = x;
       return true;
     }
-    // H = M/Δt² + Σ K_e + Σ C_e/Δt. The element Hessians are first taken as
-    // they are: M/Δt² usually keeps the sum positive definite, and then
+    // H = M/Δt² + Σ K_e + Σ C_e/Δt + Σ_t Wₜᵀ σ∂²Aₜ Wₜ. The element and
+    // triangle Hessians are first taken as they are: M/Δt² usually keeps the sum positive definite, and then
     // Newton converges quadratically. Only if the factorisation finds H
     // indefinite, or the step is not a descent direction, are they projected
     // to positive semi-definite (K_e⁺) for the rest of the step. (Projecting
@@ -197,6 +208,10 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
         }
       });
       hessian_.assemble(blocks, diagonal);
+      if (tension) {
+        EmbeddedTension::triangle_hessians(body, x, project, surface_blocks);
+        hessian_.add_surface(surface_nodes, surface_blocks);
+      }
       hessian_.fix_nodes(fixed_);
       if (factor_->analysed_for < 0) {
         factor_->llt.analyzePattern(hessian_.matrix());
@@ -280,7 +295,10 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
     dt *= 0.5;
   }
   status.halvings = halvings;
-  // Plastic flow after convergence, then the ground and the surface.
+  // Smoothing (W&T sec. 7, as Newmark's), plastic flow after convergence,
+  // then the ground and the surface.
+  if (settings_.smoothing > 0.0 && EmbeddedTension::active(body))
+    tension_.smooth(body, std::min(0.5, settings_.smoothing * body.material.surface_tension * dt));
   Points f;
   elastic_.evaluate(body, body.positions, dt, f);
   status.plastic_elements = elastic_.plastic_elements();

@@ -2,8 +2,9 @@
 // Backward Euler (ours; algorithms.md, "Time integration"): each step
 // minimises the incremental potential
 //   E(x) = ½ Δt⁻² ‖x − x̂‖²_M + Ψ(x) + Δt D((x − xⁿ)/Δt),  x̂ = xⁿ + Δt vⁿ + Δt² g,
-// (Ψ the elastic energy of Fe, D = ½ vᵀ C v the viscous dissipation with Fe
-// frozen at the start of the step) by Newton's method with per-element
+// (Ψ the elastic energy of Fe plus the surface energy σ A(W x) of the
+// embedded surface, D = ½ vᵀ C v the viscous dissipation with Fe frozen at
+// the start of the step) by Newton's method with per-element
 // Hessians projected to positive semi-definite, a backtracking line search
 // on E, and CHOLMOD's supernodal Cholesky whose symbolic analysis is kept
 // until the mesh topology changes. vⁿ⁺¹ = (xⁿ⁺¹ − xⁿ)/Δt; plastic flow after
@@ -15,6 +16,7 @@
 #include "core/constraints.h"
 #include "core/elastic_forces.h"
 #include "core/settings.h"
+#include "solvers/embedded_tension.h"
 #include "solvers/sparse_hessian.h"
 
 namespace goo {
@@ -67,6 +69,7 @@ class BackwardEulerIntegrator {
   ElasticForces elastic_;
   SparseHessian hessian_;
   SurfaceCollisions collisions_;
+  EmbeddedTension tension_;
   struct Factor;
   std::unique_ptr<Factor> factor_;
   std::vector<std::uint8_t> fixed_;

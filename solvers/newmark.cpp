@@ -46,32 +46,14 @@ void NewmarkIntegrator::ensure_forces(Body& body) {
   have_forces_ = true;
 }
 
-static bool has_tension(const Body& body) {
-  return body.material.surface_tension > 0.0 && body.embedding.num_vertices() > 0;
-}
-
-void NewmarkIntegrator::ensure_topology(const Body& body) {
-  if (!(topology_of_.rows() == body.surface_triangles.rows() && topology_of_ == body.surface_triangles)) {
-    topology_ = SurfaceTopology::build(body.surface_triangles, body.embedding.num_vertices());
-    topology_of_ = body.surface_triangles;
-  }
-  if (!(neighbours_of_.rows() == body.tets.rows() && neighbours_of_ == body.tets)) {
-    neighbours_ = face_neighbours(body.tets);
-    neighbours_of_ = body.tets;
-  }
-}
+static bool has_tension(const Body& body) { return EmbeddedTension::active(body); }
 
 void NewmarkIntegrator::evaluate_forces(Body& body, double plastic_dt) {
   elastic_.evaluate(body, body.positions, plastic_dt, forces_);
   if (!has_tension(body)) return;
   // W&T sec. 7: forces on the fine surface, to the nodes with b_i (a
   // quantity: algorithms.md, "Embedding"). In vertex order: deterministic.
-  ensure_topology(body);
-  Points f;
-  surface_tension_forces(body.surface(), topology_, body.material.surface_tension, settings_.surface_tension_form, f);
-  const Embedding& em = body.embedding;
-  for (Index v = 0; v < em.num_vertices(); ++v)
-    for (int k = 0; k < 4; ++k) forces_.row(body.tets(em.parent[at(v)], k)) += em.bary(v, k) * f.row(v);
+  tension_.add_forces(body, body.positions, settings_.surface_tension_form, forces_);
 }
 
 double NewmarkIntegrator::stable_time_step(Body& body) {
@@ -182,12 +164,8 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
   // 2. xⁿ⁺¹ = xⁿ + Δt v½; the surface smoothed and re-embedded (W&T
   // sec. 7, fig. 8); then the ground and the position collisions.
   body.positions += dt * body.velocities;
-  if (has_tension(body) && settings_.smoothing > 0.0) {
-    ensure_topology(body);
-    Points xs = body.embedding.surface_positions(body.tets, body.positions);
-    smooth_surface(xs, topology_, std::min(0.5, settings_.smoothing * body.material.surface_tension * dt));
-    reembed(body.embedding, body.tets, neighbours_, body.positions, xs);
-  }
+  if (has_tension(body) && settings_.smoothing > 0.0)
+    tension_.smooth(body, std::min(0.5, settings_.smoothing * body.material.surface_tension * dt));
   status.ground_contacts = enforce_ground(body);
   status.collisions += collisions_.resolve_positions(body, obstacles, t_next, constrained_).resolved;
 

@@ -9,6 +9,7 @@
 #include "core/elastic_forces.h"
 #include "core/settings.h"
 #include "core/surface_tension.h"
+#include "solvers/embedded_tension.h"
 
 namespace goo {
 
@@ -48,9 +49,6 @@ class NewmarkIntegrator {
   /// Elastic forces at x (with plastic flow over plastic_dt), plus surface
   /// tension mapped to the nodes with the barycentric weights.
   void evaluate_forces(Body& body, double plastic_dt);
-  /// Topology of the body's surface and its mesh's face adjacency, rebuilt
-  /// when they change.
-  void ensure_topology(const Body& body);
   void apply_gravity_and_forces(const Body& body, const Points& v, double half_dt, Points& rhs) const;
   /// Solves (M + h C) v = rhs for the free nodes, v fixed at constrained ones.
   void solve_damped(const Body& body, double h, const Points& rhs, Points& v, StepStatus& status);
@@ -62,10 +60,7 @@ class NewmarkIntegrator {
   ElasticForces elastic_;
   Damping damping_;
   SurfaceCollisions collisions_;
-  Triangles topology_of_;  // the triangles the topology was built for
-  SurfaceTopology topology_;
-  Tets neighbours_of_;  // the tets the adjacency was built for
-  Tets neighbours_;
+  EmbeddedTension tension_;
   Points forces_;  // f_e at the current positions
   bool have_forces_ = false;
   double time_ = 0.0;

@@ -27,27 +27,39 @@ Eigen::Matrix<double, 9, 12> fe_gradient(const Eigen::Matrix3d& B) {
 
 }  // namespace
 
-bool SparseHessian::matches(const Tets& tets, Index num_nodes) const {
-  return matrix_.rows() == 3 * num_nodes && tets_.rows() == tets.rows() && tets_ == tets;
+bool SparseHessian::matches(const Tets& tets, Index num_nodes,
+                            const Eigen::Matrix<Index, Eigen::Dynamic, 12, Eigen::RowMajor>& surface) const {
+  return matrix_.rows() == 3 * num_nodes && tets_.rows() == tets.rows() && tets_ == tets &&
+         surface_.rows() == surface.rows() && surface_ == surface;
 }
 
-void SparseHessian::build(const Tets& tets, Index num_nodes) {
+void SparseHessian::build(const Tets& tets, Index num_nodes,
+                          const Eigen::Matrix<Index, Eigen::Dynamic, 12, Eigen::RowMajor>& surface) {
   ++builds_;
   tets_ = tets;
+  surface_ = surface;
   const auto ne = static_cast<Index>(tets.rows());
   std::vector<Eigen::Triplet<double>> triplets;
   triplets.reserve(at(ne) * kLowerEntries + at(3 * num_nodes));
-  auto dof = [&](Index e, int a) { return 3 * tets(e, a / 3) + a % 3; };
+  // Whole 3×3 blocks for every node pair (the lower triangle of the
+  // diagonal ones), so that slot() can find entries by block.
+  auto add_pair = [&](Index p, Index q) {
+    if (p < q) std::swap(p, q);
+    for (int x = 0; x < 3; ++x)
+      for (int y = 0; y < 3; ++y)
+        if (p > q || x >= y) triplets.emplace_back(3 * p + x, 3 * q + y, 0.0);
+  };
   for (Index e = 0; e < ne; ++e)
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b <= a; ++b) add_pair(tets(e, a), tets(e, b));
+  for (Index t = 0; t < surface.rows(); ++t)
     for (int a = 0; a < 12; ++a)
-      for (int b = 0; b < 12; ++b) {
-        const Index r = dof(e, a), c = dof(e, b);
-        if (r >= c) triplets.emplace_back(r, c, 0.0);
-      }
+      for (int b = 0; b <= a; ++b) add_pair(surface(t, a), surface(t, b));
   for (Index i = 0; i < 3 * num_nodes; ++i) triplets.emplace_back(i, i, 0.0);
   matrix_.resize(3 * num_nodes, 3 * num_nodes);
   matrix_.setFromTriplets(triplets.begin(), triplets.end());
   matrix_.makeCompressed();
+  auto dof = [&](Index e, int a) { return 3 * tets(e, a / 3) + a % 3; };
   auto slot = [&](Index r, Index c) {
     const Index* begin = matrix_.innerIndexPtr() + matrix_.outerIndexPtr()[c];
     const Index* end = matrix_.innerIndexPtr() + matrix_.outerIndexPtr()[c + 1];
@@ -76,6 +88,37 @@ void SparseHessian::assemble(const std::vector<Matrix12>& blocks, const Eigen::V
         if (s >= 0) values[s] += blocks[e](a, b);
       }
   for (Index i = 0; i < diagonal.size(); ++i) values[diagonal_slots_[at(i)]] += diagonal[i];
+}
+
+Index SparseHessian::slot(Index p, Index q, int x, int y) const {
+  // Column 3q + y holds rows 3q + y … 3q + 2 (the diagonal block's lower
+  // part), then the same off-diagonal rows as column 3q, in order.
+  const Index* inner = matrix_.innerIndexPtr();
+  const auto* outer = matrix_.outerIndexPtr();
+  if (p == q) return static_cast<Index>(outer[3 * q + y] + (x - y));
+  const Index* begin = inner + outer[3 * q];
+  const Index* end = inner + outer[3 * q + 1];
+  const auto position = static_cast<Index>(std::lower_bound(begin, end, 3 * p) - begin);
+  return static_cast<Index>(outer[3 * q + y] + position - y + x);
+}
+
+void SparseHessian::add_surface(const SurfaceNodes& surface, const std::vector<Matrix9d>& H) {
+  double* values = matrix_.valuePtr();
+  for (Index t = 0; t < surface.num_triangles(); ++t)
+    for (int a = 0; a < 12; ++a)
+      for (int b = 0; b < 12; ++b) {
+        // Entry (node p, node q) of corner k's and corner l's 3×3 block; the
+        // lower triangle only (the transposed term comes with (b, a)).
+        const Index p = surface.nodes(t, a), q = surface.nodes(t, b);
+        if (p < q) continue;
+        const double w = surface.weights(t, a) * surface.weights(t, b);
+        if (w == 0.0) continue;
+        const auto block = H[at(t)].block<3, 3>(3 * (a / 4), 3 * (b / 4));
+        for (int y = 0; y < 3; ++y) {
+          const Index column = slot(p, q, p == q ? y : 0, y);
+          for (int x = p == q ? y : 0; x < 3; ++x) values[column + (x - (p == q ? y : 0))] += w * block(x, y);
+        }
+      }
 }
 
 void SparseHessian::fix_nodes(const std::vector<std::uint8_t>& fixed) {

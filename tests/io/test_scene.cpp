@@ -82,6 +82,13 @@ TEST(Scene, IntegratorAndItsSettingsAreChosenPerScene) {
   EXPECT_EQ(b.integrator, IntegratorKind::backward_euler);
   EXPECT_EQ(b.backward_euler.time_step, 0.02);
   EXPECT_EQ(b.backward_euler.linear_solver, LinearSolver::direct);
+  // Surface tension is an energy for backward Euler; its smoothing applies to either integrator.
+  const Scene t = parse(with_object(
+      R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "material": {"surface_tension": 0.07}, "lattice_spacing": 0.5})",
+      R"("integrator": {"type": "backward_euler"}, "surface_tension": {"smoothing": 0.5},)"));
+  EXPECT_EQ(t.objects[0].material.surface_tension, 0.07);
+  EXPECT_EQ(t.backward_euler.smoothing, 0.5);
+  EXPECT_EQ(t.newmark.smoothing, 0.5);
 }
 
 struct BadScene {
@@ -152,11 +159,11 @@ INSTANTIATE_TEST_SUITE_P(
         BadScene{"zero_normal",
                  with_object(kCube, R"("obstacles": [{"shape": {"type": "half_space", "normal": [0, 0, 0]}}],)"),
                  "/obstacles/0/shape/normal must not be zero"},
-        BadScene{"implicit_with_tension",
+        BadScene{"implicit_with_paper_tension",
                  with_object(
                      R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "material": {"surface_tension": 0.07}, "lattice_spacing": 0.5})",
-                     R"("integrator": {"type": "backward_euler"},)"),
-                 "backward_euler integrator does not have yet"},
+                     R"("integrator": {"type": "backward_euler"}, "surface_tension": {"form": "paper"},)"),
+                 "/surface_tension/form is 'paper', which is not the gradient of an energy"},
         BadScene{"repeated_names", fmt::format(R"({{"objects": [{}, {}]}})",
                                                R"({"name": "a", "primitive": {"type": "box", "size": [1, 1, 1]}, "material": "rigid_brick", "lattice_spacing": 0.5})",
                                                R"({"name": "a", "primitive": {"type": "box", "size": [1, 1, 1]}, "material": "rigid_brick", "lattice_spacing": 0.5})"),
