@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 #include <tbb/global_control.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -257,6 +258,30 @@ int run_scene(const RunOptions& options) {
   int exit_code = 0;
   StateRecord boundary;
   const int first_frame = frame;
+  // Per frame (the profile of docs/benchmarks.md): the wall time of each
+  // stage spent on it, and the mesh sizes at its end.
+  nlohmann::json per_frame = nlohmann::json::array();
+  StageTimes stages_before = sim.stage_times();
+  std::int64_t steps_before = sim.steps();
+  auto frame_record = [&](int k, double output_before) {
+    const StageTimes& st = sim.stage_times();
+    const SimulationTotals t = sim.totals();
+    nlohmann::json r = {{"frame", k},
+                        {"time", sim.time()},
+                        {"steps", sim.steps() - steps_before},
+                        {"remeshes", sim.remeshes()},
+                        {"elements", t.elements},
+                        {"surface_triangles", t.surface_triangles},
+                        {"stages",
+                         {{"integrate", st.integrate - stages_before.integrate},
+                          {"remesh_check", st.remesh_check - stages_before.remesh_check},
+                          {"remesh", st.remesh - stages_before.remesh},
+                          {"safety_checks", st.safety - stages_before.safety},
+                          {"frames_output", outputs.seconds - output_before}}}};
+    stages_before = st;
+    steps_before = sim.steps();
+    return r;
+  };
   while (true) {
     sim.make_restart_point();
     boundary = snapshot(frame);
@@ -284,7 +309,9 @@ int run_scene(const RunOptions& options) {
       break;
     }
     ++frame;
+    const double output_before = outputs.seconds;
     outputs.write_frame(frame, sim);
+    per_frame.push_back(frame_record(frame, output_before));
     progress.update(frame, sim.time(), sim.steps(), sim.remeshes(), frame == last_frame);
   }
   if (exit_code == 0) {
@@ -324,6 +351,10 @@ int run_scene(const RunOptions& options) {
     j["momentum_drift"] = nullptr;  // gravity, the ground, obstacles or pins act on the bodies
   }
   j["threads"] = options.threads;
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  j["peak_memory_bytes"] = static_cast<long long>(usage.ru_maxrss) * 1024;  // Linux reports KiB
+  j["per_frame"] = per_frame;
   const std::string text = j.dump(2) + "\n";
   io::write_file_atomically(folder / "summary.json", [&](std::ostream& out) { out << text; });
   if (!options.quiet && exit_code == 0)

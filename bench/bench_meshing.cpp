@@ -15,6 +15,7 @@
 #include "meshing/transfer.h"
 #include "solvers/remesh.h"
 #include "meshing/voxelize.h"
+#include "bench/bench_models.h"
 
 namespace {
 
@@ -29,11 +30,7 @@ const goo::TriangleMesh* model(int index) {
   return &cache.emplace(index, goo::io::read_surface_mesh(path)).first->second;
 }
 
-/// Spacing giving about `tets` lattice tetrahedra inside the solid (12 per
-/// cell volume h³ of solid; the surface layer adds more).
-double spacing_for(const goo::TriangleMesh& mesh, double tets) {
-  return std::cbrt(12.0 * goo::analyze_surface(mesh).volume / tets);
-}
+using goo::bench::spacing_for;
 
 void configure(benchmark::internal::Benchmark* b) {
   for (int m = 0; m < 2; ++m)
@@ -92,26 +89,7 @@ void BM_ExactMass(benchmark::State& state) {
 }
 BENCHMARK(BM_ExactMass)->Apply(configure);
 
-/// A body meshed around the model, then deformed smoothly (a twist and a
-/// shear of a few percent, no longer lattice-aligned), moving and stressed:
-/// what a re-mesh meets.
-goo::MeshedBody deformed_body(const goo::TriangleMesh& mesh, double h) {
-  goo::Material material;
-  material.density = 1000.0;
-  goo::MeshedBody mb = goo::mesh_body(mesh, material, h);
-  goo::Points& x = mb.body.positions;
-  const Eigen::AlignedBox3d box = goo::bounding_box(x);
-  const double size = box.diagonal().norm();
-  for (goo::Index n = 0; n < x.rows(); ++n) {
-    const Eigen::Vector3d p = (x.row(n).transpose() - box.center()) / size;  // |p| ≤ ½
-    const double angle = 0.3 * p.z();
-    const Eigen::Vector3d q(std::cos(angle) * p.x() - std::sin(angle) * p.y() + 0.05 * p.z(),
-                            std::sin(angle) * p.x() + std::cos(angle) * p.y(), 1.02 * p.z());
-    x.row(n) = (box.center() + size * q).transpose();
-    mb.body.velocities.row(n) = Eigen::RowVector3d(-p.y(), p.x(), 0.1);
-  }
-  return mb;
-}
+using goo::bench::deformed_body;
 
 /// The state transfer alone, onto a new lattice mesh already built: node
 /// location and velocity interpolation, overlap volumes, left-stretch

@@ -88,6 +88,21 @@ TEST(GooRun, FramesAndSummaryOfAFreelyMovingCubeAreExact) {
   EXPECT_LT(summary["momentum_drift"].get<double>(), 1e-14 * mass);
   for (const char* key : {"wall_seconds", "steps", "remeshes", "elements", "surface_triangles", "stages"})
     EXPECT_TRUE(summary.contains(key)) << key;
+  // The peak memory is at least what the process holds, and the per-frame
+  // profile adds up: one record a frame, whose steps and stages sum to the totals.
+  EXPECT_GT(summary["peak_memory_bytes"].get<double>(), 1e6);
+  const auto& per_frame = summary["per_frame"];
+  ASSERT_EQ(per_frame.size(), 3u);
+  long steps = 0;
+  double integrate = 0.0;
+  for (std::size_t k = 0; k < per_frame.size(); ++k) {
+    EXPECT_EQ(per_frame[k]["frame"], k + 1);
+    EXPECT_GT(per_frame[k]["elements"].get<long>(), 0);
+    steps += per_frame[k]["steps"].get<long>();
+    integrate += per_frame[k]["stages"]["integrate"].get<double>();
+  }
+  EXPECT_EQ(steps, summary["steps"].get<long>());
+  EXPECT_NEAR(integrate, summary["stages"]["integrate"].get<double>(), 1e-9);
   EXPECT_TRUE(fs::exists(dir / "out/run.h5"));
   // Every dataset the XDMF sidecar points at is in run.h5 (h5dump, an independent reader).
   const std::string xdmf = slurp(dir / "out/run.xdmf");
