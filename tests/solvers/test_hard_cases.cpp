@@ -27,6 +27,13 @@ std::string cube(const std::string& material, const std::string& object_extra = 
 
 void expect_kept(const Simulation& sim, const SimulationTotals& start, double volume_fraction = 0.95) {
   const SimulationTotals end = sim.totals();
+  // The figures of the benchmark report (scripts/bench reads them from gtest's JSON output).
+  ::testing::Test::RecordProperty("volume_ratio", fmt::format("{:.6f}", end.volume / start.volume));
+  ::testing::Test::RecordProperty("mass_error", fmt::format("{:.3e}", std::abs(end.mass - start.mass) / start.mass));
+  ::testing::Test::RecordProperty("steps", fmt::format("{}", sim.steps()));
+  ::testing::Test::RecordProperty("remeshes", fmt::format("{}", sim.remeshes()));
+  ::testing::Test::RecordProperty("simulated_seconds", fmt::format("{:.4g}", sim.time()));
+  ::testing::Test::RecordProperty("max_speed", fmt::format("{:.4g}", end.max_speed));
   EXPECT_NEAR(end.mass, start.mass, 1e-12 * start.mass);
   EXPECT_GE(end.volume, volume_fraction * std::abs(start.volume));
   EXPECT_LE(end.volume, (2.0 - volume_fraction) * std::abs(start.volume));

@@ -1,0 +1,37 @@
+"""Google Benchmark microbenchmarks (bench/*.cpp), medians of repetitions."""
+import json
+
+from common import log, run, table, write_csv, write_json
+
+QUICK = ("BM_Svd3$|BM_ElasticForces/12/|BM_SurfaceTension/0/|BM_Collisions/|BM_AssembleHessian/10/|"
+         "BM_CholmodFactor/10/|BM_CholmodSolve/10/|BM_(Voxelize|BuildTets|Embed|ExactMass|Transfer|Remesh)/0/8$")
+
+
+def run_section(ctx):
+    reps = 3 if ctx.quick else 5
+    out = ctx.path("micro.json")
+    cmd = [ctx.goo_bench, f"--benchmark_repetitions={reps}", "--benchmark_report_aggregates_only=true",
+           f"--benchmark_out={out}", "--benchmark_out_format=json"]
+    if ctx.quick:
+        cmd += [f"--benchmark_filter={QUICK}", "--benchmark_min_time=0.1"]
+    log(f"micro: goo_bench, {reps} repetitions")
+    run(cmd, timeout=7200)
+    with open(out) as f:
+        data = json.load(f)
+    rows = []
+    for b in data["benchmarks"]:
+        if b.get("aggregate_name") != "median":
+            continue
+        row = {"benchmark": b["run_name"], "median": b["real_time"], "unit": b["time_unit"]}
+        for counter in ("tets", "items_per_second"):
+            if counter in b:
+                row[counter] = b[counter]
+        rows.append(row)
+    cv = {b["run_name"]: b["real_time"] for b in data["benchmarks"] if b.get("aggregate_name") == "cv"}
+    for r in rows:
+        r["cv_percent"] = 100.0 * cv.get(r["benchmark"], float("nan"))
+    write_json(ctx.path("micro_medians.json"), {"context": data["context"], "medians": rows})
+    write_csv(ctx.path("micro.csv"), rows)
+    return table(rows, [("benchmark", "benchmark", "{}"), ("median", "median", "{:.4g}"), ("unit", "unit", "{}"),
+                        ("cv_percent", "CV %", "{:.1f}"), ("tets", "tets", "{:.0f}")],
+                 f"Microbenchmarks (median of {reps})")

@@ -1,0 +1,73 @@
+"""Per-frame profile of each example scene: wall time split by stage, and
+element and surface-triangle counts over time (from goo run's summary.json)."""
+import glob
+import os
+
+from common import goo_run, log, plt, save_figure, table, write_csv, write_json
+
+STAGES = ["integrate", "remesh_check", "remesh", "safety_checks", "frames_output"]
+
+
+def run_section(ctx):
+    scenes = sorted(glob.glob(os.path.join(ctx.root, "scenes", "*.json")))
+    frames = 3 if ctx.quick else None  # None: the scene's own frame count
+    rows, per_frame = [], []
+    for scene in scenes:
+        name = os.path.splitext(os.path.basename(scene))[0]
+        log(f"scenes: {name}")
+        try:
+            s = goo_run(ctx, scene, ctx.path("scenes", name, "x")[:-2], frames=frames, timeout=3600)
+        except Exception as e:
+            log(f"scenes: {name} failed: {e}")
+            rows.append({"scene": name, "error": str(e)[:300]})
+            continue
+        total = sum(s["stages"].values())
+        row = {"scene": name, "integrator": s["integrator"], "frames": s["frames"], "steps": s["steps"],
+               "remeshes": s["remeshes"], "wall_seconds": s["wall_seconds"],
+               "seconds_per_frame": s["wall_seconds"] / max(1, s["frames"]),
+               "elements": s["elements"], "surface_triangles": s["surface_triangles"],
+               "peak_memory_mb": s["peak_memory_bytes"] / 1e6}
+        for stage, seconds in s["stages"].items():
+            row[f"{stage}_percent"] = 100.0 * seconds / total if total > 0 else 0.0
+        rows.append(row)
+        for record in s["per_frame"]:
+            per_frame.append({"scene": name, "frame": record["frame"], "time": record["time"],
+                              "steps": record["steps"], "elements": record["elements"],
+                              "surface_triangles": record["surface_triangles"],
+                              **{f"{k}_seconds": v for k, v in record["stages"].items()}})
+    write_json(ctx.path("scenes.json"), {"scenes": rows, "per_frame": per_frame})
+    write_csv(ctx.path("scenes_per_frame.csv"), per_frame)
+    plot(ctx, rows, per_frame)
+    return table(rows, [
+        ("scene", "scene", "{}"), ("integrator", "integrator", "{}"), ("frames", "frames", "{}"),
+        ("steps", "steps", "{}"), ("remeshes", "re-meshes", "{}"), ("seconds_per_frame", "s/frame", "{:.3g}"),
+        ("integrate_percent", "integrate %", "{:.0f}"), ("remesh_check_percent", "trigger %", "{:.1f}"),
+        ("remesh_percent", "re-mesh %", "{:.1f}"), ("frames_output_percent", "output %", "{:.1f}"),
+        ("checkpoints_percent", "checkpoints %", "{:.1f}"), ("elements", "tets (end)", "{}"),
+        ("surface_triangles", "triangles (end)", "{}"), ("peak_memory_mb", "peak MB", "{:.0f}")],
+        "Example scenes: where the wall time goes")
+
+
+def plot(ctx, rows, per_frame):
+    names = [r["scene"] for r in rows if "error" not in r]
+    if not names:
+        return
+    fig, axes = plt.subplots(len(names), 2, figsize=(11, 2.2 * len(names)), squeeze=False)
+    for i, name in enumerate(names):
+        records = [p for p in per_frame if p["scene"] == name]
+        x = [p["frame"] for p in records]
+        bottom = [0.0] * len(records)
+        for stage in STAGES:
+            y = [p.get(f"{stage}_seconds", 0.0) for p in records]
+            axes[i][0].bar(x, y, bottom=bottom, label=stage)
+            bottom = [b + v for b, v in zip(bottom, y)]
+        axes[i][0].set_ylabel("s")
+        axes[i][0].set_title(f"{name}: wall time per frame by stage", fontsize=9)
+        axes[i][1].plot(x, [p["elements"] for p in records], label="tets")
+        axes[i][1].plot(x, [p["surface_triangles"] for p in records], label="surface triangles")
+        axes[i][1].set_title(f"{name}: mesh sizes", fontsize=9)
+    axes[0][0].legend(fontsize=7)
+    axes[0][1].legend(fontsize=7)
+    axes[-1][0].set_xlabel("frame")
+    axes[-1][1].set_xlabel("frame")
+    save_figure(fig, ctx.path("scenes.png"))
