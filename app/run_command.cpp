@@ -60,6 +60,21 @@ class SignalGuard {
 
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
+/// The wall seconds of an integrator's stages (a − b), keyed as summary.json has them.
+nlohmann::json step_stages(const StepTimes& a, const StepTimes& b) {
+  return {{"forces", a.forces - b.forces},           {"damping", a.damping - b.damping},
+          {"hessian", a.hessian - b.hessian},        {"linear_solve", a.linear_solve - b.linear_solve},
+          {"collisions", a.collisions - b.collisions}, {"surface", a.surface - b.surface},
+          {"other", a.other - b.other}};
+}
+
+/// The same for a re-mesh's stages.
+nlohmann::json remesh_stages(const RemeshTimes& a, const RemeshTimes& b) {
+  return {{"upkeep", a.upkeep - b.upkeep},       {"lattice", a.lattice - b.lattice},
+          {"transfer", a.transfer - b.transfer}, {"masses", a.masses - b.masses},
+          {"conservation", a.conservation - b.conservation}};
+}
+
 /// The process's peak resident memory so far: VmHWM of /proc/self/status.
 /// (getrusage's ru_maxrss would do, but Linux carries it over from the
 /// parent across fork and exec: under a 60 MB Python harness every small run
@@ -291,7 +306,9 @@ int run_scene(const RunOptions& options) {
                           {"remesh_check", st.remesh_check - stages_before.remesh_check},
                           {"remesh", st.remesh - stages_before.remesh},
                           {"safety_checks", st.safety - stages_before.safety},
-                          {"frames_output", outputs.seconds - output_before}}}};
+                          {"frames_output", outputs.seconds - output_before}}},
+                        {"integrate_stages", step_stages(st.step, stages_before.step)},
+                        {"remesh_stages", remesh_stages(st.remesh_stages, stages_before.remesh_stages)}};
     stages_before = st;
     steps_before = sim.steps();
     return r;
@@ -349,6 +366,8 @@ int run_scene(const RunOptions& options) {
   j["stages"] = {{"integrate", st.integrate},       {"remesh_check", st.remesh_check}, {"remesh", st.remesh},
                  {"safety_checks", st.safety},       {"frames_output", outputs.seconds},
                  {"checkpoints", checkpoint_seconds}};
+  j["integrate_stages"] = step_stages(st.step, StepTimes{});
+  j["remesh_stages"] = remesh_stages(st.remesh_stages, RemeshTimes{});
   j["steps"] = sim.steps();
   j["remeshes"] = sim.remeshes();
   j["nodes"] = now.nodes;

@@ -93,6 +93,7 @@ void apply_blocks(const Body& body, const std::vector<Matrix12>& C, const Points
 }  // namespace
 
 bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& status) {
+  StageTimer timer;
   const Index nn = body.num_nodes(), ne = body.num_elements();
   const Eigen::VectorXd& m = body.masses;
   const Points xn = body.positions, vn = body.velocities;
@@ -163,6 +164,7 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
   const double scale =
       std::max({m.maxCoeff() * settings_.gravity.norm(), max_abs_free(f, fixed_), inertia, 1e-300});
 
+  times_.forces += timer.lap();
   if (!hessian_.matches(body.tets, nn, surface_nodes.nodes)) hessian_.build(body.tets, nn, surface_nodes.nodes);
   if (factor_->analysed_for != hessian_.builds()) factor_->analysed_for = -1;
   std::vector<Matrix12> blocks(at(ne));
@@ -173,8 +175,10 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
   status.dt = dt;
   double E = energy(x);
   bool project = false;
+  times_.hessian += timer.lap();
   for (int iteration = 0; iteration < settings_.max_newton_iterations; ++iteration) {
     evaluate_gradient(x);
+    times_.forces += timer.lap();
     const double residual = max_abs_free(gradient, fixed_) / scale;
     if (!std::isfinite(residual) || !std::isfinite(E)) return false;
     status.residual = residual;
@@ -201,6 +205,7 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
         if (project) break;
         project = true;
       }
+      timer.lap();
       tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
         for (Index e = r.begin(); e != r.end(); ++e) {
           blocks[at(e)] = element_elastic_hessian(body, x, e, project);
@@ -213,6 +218,7 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
         hessian_.add_surface(surface_nodes, surface_blocks);
       }
       hessian_.fix_nodes(fixed_);
+      times_.hessian += timer.lap();
       if (factor_->analysed_for < 0) {
         factor_->llt.analyzePattern(hessian_.matrix());
         ++factor_->symbolic;
@@ -233,6 +239,7 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
         have = factor_->llt.info() == Eigen::Success;
       }
       solved = have && dx.allFinite() && rhs.dot(dx) > 0.0;  // a descent direction
+      times_.linear_solve += timer.lap();
     }
     if (!solved) return false;
     const Eigen::Map<const Points> step(dx.data(), nn, 3);
@@ -258,6 +265,7 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
       if (ls == 19) return false;
     }
     x = trial;
+    times_.forces += timer.lap();  // the line search's energies
   }
   // The iterations ran out: accept a residual below acceptable_tolerance.
   evaluate_gradient(x);
@@ -280,6 +288,7 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
   for (const Index n : constraints_.pinned) fixed_[at(n)] = 1;
   for (const auto& motion : constraints_.prescribed)
     for (const Index n : motion.nodes) fixed_[at(n)] = 1;
+  times_ = StepTimes{};
   double dt = std::min(settings_.time_step, max_dt);
   if (!(dt > 0.0)) throw Error(fmt::format("backward_euler: non-positive time step {} s", dt));
   const Points x0 = body.positions, v0 = body.velocities;
@@ -295,19 +304,24 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
     dt *= 0.5;
   }
   status.halvings = halvings;
+  StageTimer timer;
   // Smoothing (W&T sec. 7, as Newmark's), plastic flow after convergence,
   // then the ground and the surface.
   if (settings_.smoothing > 0.0 && EmbeddedTension::active(body))
     tension_.smooth(body, std::min(0.5, settings_.smoothing * body.material.surface_tension * dt));
+  times_.surface += timer.lap();
   Points f;
   elastic_.evaluate(body, body.positions, dt, f);
   status.plastic_elements = elastic_.plastic_elements();
+  times_.forces += timer.lap();
   const double t_next = time_ + dt;
   if (constraints_.ground) enforce_ground(body, *constraints_.ground, fixed_);
   status.collisions += collisions_.resolve_positions(body, constraints_.obstacles, t_next, fixed_).resolved;
   status.collisions +=
       collisions_.resolve_velocities(body, body.velocities, constraints_.obstacles, t_next, dt, fixed_).resolved;
+  times_.collisions += timer.lap();
   time_ = t_next;
+  status.times = times_;
   return status;
 }
 

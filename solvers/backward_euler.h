@@ -18,6 +18,7 @@
 #include "core/settings.h"
 #include "solvers/embedded_tension.h"
 #include "solvers/sparse_hessian.h"
+#include "solvers/stepping.h"
 
 namespace goo {
 
@@ -35,6 +36,7 @@ struct NewtonStatus {
   std::vector<double> residuals;  ///< after each iteration (convergence history)
   Index plastic_elements = 0;
   Index collisions = 0;
+  StepTimes times;  ///< wall seconds by stage, all attempts
 };
 
 class BackwardEulerIntegrator {
@@ -74,6 +76,7 @@ class BackwardEulerIntegrator {
   std::unique_ptr<Factor> factor_;
   std::vector<std::uint8_t> fixed_;
   double time_ = 0.0;
+  StepTimes times_;  // this step's, by stage
 };
 
 }  // namespace goo

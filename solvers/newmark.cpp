@@ -49,11 +49,14 @@ void NewmarkIntegrator::ensure_forces(Body& body) {
 static bool has_tension(const Body& body) { return EmbeddedTension::active(body); }
 
 void NewmarkIntegrator::evaluate_forces(Body& body, double plastic_dt) {
+  StageTimer timer;
   elastic_.evaluate(body, body.positions, plastic_dt, forces_);
+  times_.forces += timer.lap();
   if (!has_tension(body)) return;
   // W&T sec. 7: forces on the fine surface, to the nodes with b_i (a
   // quantity: algorithms.md, "Embedding"). In vertex order: deterministic.
   tension_.add_forces(body, body.positions, settings_.surface_tension_form, forces_);
+  times_.surface += timer.lap();
 }
 
 double NewmarkIntegrator::stable_time_step(Body& body) {
@@ -145,8 +148,10 @@ Index NewmarkIntegrator::enforce_ground(Body& body) {
 }
 
 StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
+  times_ = StepTimes{};
   ensure_forces(body);
   StepStatus status;
+  StageTimer timer;
   const double dt = std::min(stable_time_step(body), max_dt);
   if (!(dt > 0.0)) throw Error(fmt::format("newmark: non-positive time step {} s", dt));
   const double h = 0.5 * dt;
@@ -156,22 +161,29 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
   Points rhs;
   apply_gravity_and_forces(body, body.velocities, h, rhs);
   impose_velocities(body, t_next, dt, body.velocities);
+  times_.other += timer.lap();
   solve_damped(body, h, rhs, body.velocities, status);
+  times_.damping += timer.lap();
   const auto& obstacles = constraints_.obstacles;
   // Collisions adjust v½ (W&T sec. 4; algorithms.md, "Time integration").
   status.collisions += collisions_.resolve_velocities(body, body.velocities, obstacles, t_next, dt, constrained_).resolved;
+  times_.collisions += timer.lap();
 
   // 2. xⁿ⁺¹ = xⁿ + Δt v½; the surface smoothed and re-embedded (W&T
   // sec. 7, fig. 8); then the ground and the position collisions.
   body.positions += dt * body.velocities;
+  times_.other += timer.lap();
   if (has_tension(body) && settings_.smoothing > 0.0)
     tension_.smooth(body, std::min(0.5, settings_.smoothing * body.material.surface_tension * dt));
+  times_.surface += timer.lap();
   status.ground_contacts = enforce_ground(body);
   status.collisions += collisions_.resolve_positions(body, obstacles, t_next, constrained_).resolved;
+  times_.collisions += timer.lap();
 
   // 3. The one elastic force evaluation, at xⁿ⁺¹, with plastic flow.
   evaluate_forces(body, dt);
   status.plastic_elements = elastic_.plastic_elements();
+  timer.lap();  // counted by evaluate_forces
 
   // 4. vⁿ⁺¹ = v½ + Δt/2 M⁻¹ (f_e(xⁿ⁺¹) + f_d(xⁿ⁺¹, vⁿ⁺¹) + M g).
   apply_gravity_and_forces(body, body.velocities, h, rhs);
@@ -184,13 +196,17 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
     }
   }
   for (const Index n : constraints_.pinned) body.velocities.row(n).setZero();
+  times_.other += timer.lap();
   solve_damped(body, h, rhs, body.velocities, status);
+  times_.damping += timer.lap();
   enforce_ground(body);
   // vⁿ⁺¹ must not drive the surface into an obstacle over the next step.
   status.collisions += collisions_.resolve_velocities(body, body.velocities, obstacles, t_next, dt, constrained_).resolved;
+  times_.collisions += timer.lap();
 
   time_ = t_next;
   status.dt = dt;
+  status.times = times_;
   return status;
 }
 

@@ -10,6 +10,7 @@
 #include "core/settings.h"
 #include "core/surface_tension.h"
 #include "solvers/embedded_tension.h"
+#include "solvers/stepping.h"
 
 namespace goo {
 
@@ -22,6 +23,7 @@ struct StepStatus {
   Index plastic_elements = 0;
   Index ground_contacts = 0;
   Index collisions = 0;  ///< element corrections of the embedded surface, positions and velocities
+  StepTimes times;       ///< wall seconds by stage
 };
 
 class NewmarkIntegrator {
@@ -62,6 +64,7 @@ class NewmarkIntegrator {
   SurfaceCollisions collisions_;
   EmbeddedTension tension_;
   Points forces_;  // f_e at the current positions
+  StepTimes times_;  // this step's, by stage
   bool have_forces_ = false;
   double time_ = 0.0;
   std::vector<unsigned char> constrained_;

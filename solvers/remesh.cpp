@@ -11,6 +11,7 @@
 #include "core/parallel.h"
 #include "core/plasticity.h"
 #include "core/surface_geometry.h"
+#include "solvers/stepping.h"
 #include "meshing/exact_mass.h"
 #include "meshing/remesh_trigger.h"
 #include "meshing/transfer.h"
@@ -77,17 +78,21 @@ MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, doub
 
 MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, RemeshReport* report,
                   const UpkeepSettings* upkeep) {
+  StageTimer timer;
+  RemeshTimes times;
   TriangleMesh upkept;
   if (upkeep) {
     upkept = current;
     const UpkeepReport done = upkeep_surface(upkept, h, *upkeep);
     if (report) report->upkeep = done;
   }
+  times.upkeep = timer.lap();
   const TriangleMesh& surface = upkeep ? upkept : current;
   MeshedBody out{Body{}, build_lattice_mesh(surface, h)};
   const LatticeMesh& lm = out.lattice_mesh;
   Body& body = out.body;
   body = body_on_lattice(lm, old.material);
+  times.lattice = timer.lap();
 
   // Velocities: interpolation in the old deformed elements.
   const NodeSources sources = locate_in_old_mesh(old.tets, old.positions, lm);
@@ -103,6 +108,7 @@ MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, Remesh
   const ElementOverlaps overlaps = element_overlaps(old.tets, old.positions, lm);
   const ElasticState state =
       transfer_elastic_state(overlaps, sources, old_Fe, old.alpha, lm, kPlasticMinSingularValue);
+  times.transfer = timer.lap();
   // The material's stress-free volume Σ V_solid / det Fe is invariant (plastic
   // flow is isochoric); the averaged state misses it by a discretisation
   // error, which would act as a pressure and, re-mesh after re-mesh, drive
@@ -126,6 +132,7 @@ MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, Remesh
 
   // Exact masses of the transferred state, clamped.
   body.masses = exact_node_masses(lm, solid, old.material.density, det_Fe, old.material.min_mass_fraction);
+  times.masses = timer.lap();
 
   // Conservation: m_i ← m_i (a + g·(x_i − c)) restores total mass and centre
   // of mass (a = M_old / M_new; g solves Σ m (x − c)(x − c)ᵀ g = M_old (c_old − c_new));
@@ -178,6 +185,8 @@ MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, Remesh
   }
   body.surface_triangles = surface.triangles;
   body.embedding = embed(lm, surface.vertices);
+  times.conservation = timer.lap();
+  if (report) report->times = times;
   return out;
 }
 

@@ -18,6 +18,21 @@ struct MeshedBody {
   [[nodiscard]] TriangleMesh surface() const { return body.surface(); }
 };
 
+/// Wall seconds of a re-mesh by stage.
+struct RemeshTimes {
+  double upkeep = 0.0;        ///< surface splits, collapses and flips
+  double lattice = 0.0;       ///< the new lattice mesh around the surface
+  double transfer = 0.0;      ///< velocities and elastic state from the old mesh
+  double masses = 0.0;        ///< the solid clipped to the elements, exact masses
+  double conservation = 0.0;  ///< mass, centre and momentum restored; the surface embedded
+
+  RemeshTimes& operator+=(const RemeshTimes& o) {
+    upkeep += o.upkeep, lattice += o.lattice, transfer += o.transfer, masses += o.masses;
+    conservation += o.conservation;
+    return *this;
+  }
+};
+
 /// What a re-mesh did, and how far the transferred state missed the
 /// conserved totals before the conservation step (discretisation error of
 /// the averaged density; round-off when the old state was uniform).
@@ -31,6 +46,7 @@ struct RemeshReport {
   double momentum_error = 0.0;   ///< |P_new − P_old| / (M_old max |v_old|), 0 at rest
   double rest_volume_error = 0.0;  ///< |r − 1|: how far the averaged state missed the stress-free volume
   UpkeepReport upkeep;           ///< the surface upkeep before meshing, if asked for
+  RemeshTimes times;
 };
 
 /// The first mesh of a body: every lattice tetrahedron of spacing h around

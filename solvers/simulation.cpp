@@ -222,10 +222,14 @@ void Simulation::step_body(std::size_t i, double max_dt) {
   Stepper& s = *steppers_[i];
   auto start = Clock::now();
   if (s.newmark) {
-    last_dt_ = s.newmark->step(b.body, max_dt).dt;
+    const StepStatus status = s.newmark->step(b.body, max_dt);
+    last_dt_ = status.dt;
+    times_.step += status.times;
   } else {
     try {
-      last_dt_ = s.backward_euler->step(b.body, max_dt).dt;
+      const NewtonStatus status = s.backward_euler->step(b.body, max_dt);
+      last_dt_ = status.dt;
+      times_.step += status.times;
     } catch (const Error& e) {  // Newton failed even at the smallest Δt: not bad input
       throw NumericalFailure(fmt::format("numerical failure at step {} (t = {:.6g} s): body '{}': {}; try a smaller "
                                          "backward_euler.time_step or more max_newton_iterations",
@@ -261,6 +265,7 @@ void Simulation::step_body(std::size_t i, double max_dt) {
     times_.remesh += seconds_since(start);
     return;
   }
+  times_.remesh_stages += report.times;
   MeshedBody& meshed = *attempt;
   b.body = std::move(meshed.body);
   b.pinned = nodes_in(b.body.positions, b.regions);

@@ -11,6 +11,8 @@
 #include "core/body.h"
 #include "core/scene.h"
 #include "core/state_record.h"
+#include "solvers/remesh.h"
+#include "solvers/stepping.h"
 
 namespace goo {
 
@@ -28,6 +30,8 @@ struct StageTimes {
   double remesh_check = 0.0;  ///< the re-mesh trigger
   double remesh = 0.0;        ///< surface upkeep, new lattice mesh, transfer, exact masses
   double safety = 0.0;        ///< the finite-value and speed checks
+  StepTimes step;             ///< `integrate`, by stage
+  RemeshTimes remesh_stages;  ///< `remesh`, by stage (the re-meshes that happened)
 };
 
 /// Totals over every body.

@@ -1,9 +1,41 @@
 #pragma once
-// What every integrator's advance_to shares.
+// What every integrator's step and advance_to share.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 namespace goo {
+
+/// Wall seconds of one step by stage (the profile of docs/benchmarks.md).
+struct StepTimes {
+  double forces = 0.0;        ///< elastic forces with plastic flow; Newton's gradients and energies
+  double damping = 0.0;       ///< Newmark's implicit damping solves
+  double hessian = 0.0;       ///< backward Euler: element and surface Hessians, assembly
+  double linear_solve = 0.0;  ///< backward Euler: factorisations, solves, conjugate gradients
+  double collisions = 0.0;    ///< the ground and the obstacles
+  double surface = 0.0;       ///< surface tension forces, smoothing and re-embedding
+  double other = 0.0;         ///< the time-step choice, updates
+
+  StepTimes& operator+=(const StepTimes& o) {
+    forces += o.forces, damping += o.damping, hessian += o.hessian, linear_solve += o.linear_solve;
+    collisions += o.collisions, surface += o.surface, other += o.other;
+    return *this;
+  }
+};
+
+/// Laps of a steady clock: lap() is the seconds since the last lap.
+class StageTimer {
+ public:
+  double lap() {
+    const auto now = std::chrono::steady_clock::now();
+    const double seconds = std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+    return seconds;
+  }
+
+ private:
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
 
 struct NeverStop {
   bool operator()() const { return false; }

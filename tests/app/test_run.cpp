@@ -102,6 +102,15 @@ TEST(GooRun, FramesAndSummaryOfAFreelyMovingCubeAreExact) {
     integrate += per_frame[k]["stages"]["integrate"].get<double>();
   }
   EXPECT_EQ(steps, summary["steps"].get<long>());
+  // The stages of a step are laps inside it: none negative, and together no
+  // more than the step's own time, measured around it.
+  double stage_sum = 0.0;
+  for (const auto& [name, seconds] : summary["integrate_stages"].items()) {
+    EXPECT_GE(seconds.get<double>(), 0.0) << name;
+    stage_sum += seconds.get<double>();
+  }
+  EXPECT_GT(stage_sum, 0.0);
+  EXPECT_LE(stage_sum, summary["stages"]["integrate"].get<double>());
   EXPECT_NEAR(integrate, summary["stages"]["integrate"].get<double>(), 1e-9);
   EXPECT_TRUE(fs::exists(dir / "out/run.h5"));
   // Every dataset the XDMF sidecar points at is in run.h5 (h5dump, an independent reader).
