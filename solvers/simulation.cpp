@@ -252,11 +252,20 @@ void Simulation::step_body(std::size_t i, double max_dt) {
 
   // W&T fig. 8, last stage: a new lattice mesh around the current surface.
   start = Clock::now();
+  // A surface turned inside out (every element inverted: a mirrored body)
+  // encloses negative volume and bounds no solid a lattice could fill; the
+  // re-mesh waits until the elasticity has turned it right side out.
+  const TriangleMesh surface = b.body.surface();
+  if (const double volume = surface_integrals(surface).volume; !(volume > 0.0)) {
+    log().debug("re-mesh of '{}' postponed: its surface is inside out (volume {:.3g} m³)", b.name, volume);
+    times_.remesh += seconds_since(start);
+    return;
+  }
   RemeshReport report;
   const double t = s.time();
   std::optional<MeshedBody> attempt;
   try {
-    attempt = remesh(b.body, b.body.surface(), b.h, &report,
+    attempt = remesh(b.body, surface, b.h, &report,
                      scene_.remesh.upkeep ? &scene_.remesh.upkeep_settings : nullptr);
   } catch (const Error& e) {
     // A mesh with no valid element left (every element inverted) cannot
