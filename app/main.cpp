@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <csignal>
 #include <iostream>
 
 #include "app/info_command.h"
@@ -24,6 +25,10 @@ constexpr int kExitBadInput = 2;
 }  // namespace
 
 int main(int argc, char** argv) {
+  // When whoever reads goo's output goes away (a harness killed, `goo run |
+  // head`), writing a log line must fail quietly, not kill goo before it
+  // writes its checkpoint and summary.
+  std::signal(SIGPIPE, SIG_IGN);
   CLI::App app{"goo: viscoelastic and viscoplastic materials with thin features", "goo"};
   app.set_version_flag("--version", std::string("goo ") + GOO_VERSION);
   app.require_subcommand(0, 1);

@@ -35,7 +35,14 @@ volatile std::sig_atomic_t g_signal = 0;
 
 extern "C" void on_signal(int signal) { g_signal = signal; }
 
-/// Installs the SIGINT/SIGTERM handler for the lifetime of a run.
+/// Progress to stderr, ignoring write errors (fmt::print would throw when
+/// nobody reads stderr any more, and a progress line is not worth a run).
+void to_stderr(const std::string& text) {
+  if (std::fwrite(text.data(), 1, text.size(), stderr) == text.size()) std::fflush(stderr);
+}
+
+/// Installs the SIGINT/SIGTERM handler for the lifetime of a run (goo's
+/// main ignores SIGPIPE for the whole process).
 class SignalGuard {
  public:
   SignalGuard() {
@@ -123,16 +130,15 @@ class Progress {
     if (tty_) {
       constexpr int width = 24;
       const int filled = total > 0 ? width * done / total : width;
-      fmt::print(stderr, "\r[{}{}] {}\x1b[K", std::string(static_cast<std::size_t>(filled), '#'),
-                 std::string(static_cast<std::size_t>(width - filled), '.'), text);
+      to_stderr(fmt::format("\r[{}{}] {}\x1b[K", std::string(static_cast<std::size_t>(filled), '#'),
+                            std::string(static_cast<std::size_t>(width - filled), '.'), text));
     } else {
-      fmt::print(stderr, "goo: {}\n", text);
+      to_stderr(fmt::format("goo: {}\n", text));
     }
-    std::fflush(stderr);
   }
   void set_steps0(std::int64_t steps) { steps0_ = steps; }
   void finish() {
-    if (!quiet_ && tty_) fmt::print(stderr, "\n");
+    if (!quiet_ && tty_) to_stderr("\n");
   }
 
  private:

@@ -194,6 +194,42 @@ TEST_F(GooRestart, AfterSigintInTheMiddleOfAFrameResumingIsBitwiseIdentical) {
   EXPECT_TRUE(bytes_of(dir / "a/checkpoints/frame_00004.h5") == bytes_of(dir / "c/checkpoints/frame_00004.h5"));
 }
 
+// Whoever reads goo's log may go away (a harness killed, `goo run | head`):
+// its log lines then fail (SIGPIPE ignored, EPIPE) instead of killing goo,
+// and a later SIGTERM still gets the checkpoint and the summary written.
+TEST_F(GooRestart, AClosedLogPipeDoesNotCostTheCheckpoint) {
+  const test::TempDir& dir = *dir_;
+  int pipe_ends[2];
+  ASSERT_EQ(::pipe(pipe_ends), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    const std::string out = (dir / "d").string(), scene = (dir / "drop.json").string();
+    ::close(pipe_ends[0]);
+    ::dup2(pipe_ends[1], STDERR_FILENO);
+    ::dup2(pipe_ends[1], STDOUT_FILENO);
+    ::execl(GOO_EXECUTABLE, GOO_EXECUTABLE, "run", scene.c_str(), "--out", out.c_str(),
+            static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  ::close(pipe_ends[1]);
+  ::close(pipe_ends[0]);  // nobody reads goo's output any more
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(300);
+  int status = 0;
+  pid_t ended = 0;  // the child, if it ended by itself (it should not)
+  while (!fs::exists(dir / "d/frames/frame_00001.ply") && std::chrono::steady_clock::now() < deadline &&
+         (ended = ::waitpid(child, &status, WNOHANG)) == 0)
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  if (ended == 0) {
+    ::kill(child, SIGTERM);
+    ::waitpid(child, &status, 0);
+  }
+  ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  ASSERT_EQ(WEXITSTATUS(status), 130) << "the run ended before the signal arrived";
+  EXPECT_EQ(nlohmann::json::parse(slurp(dir / "d/summary.json"))["status"], "interrupted");
+  EXPECT_FALSE(fs::is_empty(dir / "d/checkpoints"));
+}
+
 TEST(GooRun, BadScenesExitTwoNamingThePathAndWriteNothing) {
   test::TempDir dir;
   dir.write("open.off", "OFF\n4 3 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n");
