@@ -17,6 +17,7 @@
 #include "solvers/newmark.h"
 #include "solvers/remesh.h"
 #include "solvers/sparse_hessian.h"
+#include "tests/solvers/tense_cube.h"
 
 namespace goo {
 namespace {
@@ -153,11 +154,7 @@ TEST(ImplicitTension, AssembledSurfaceHessianMatchesFiniteDifferences) {
   EXPECT_LT(raw.eigenvalues().minCoeff(), -1e-6 * raw.eigenvalues().cwiseAbs().maxCoeff());
 }
 
-/// π^⅓ (6V)^⅔ / A: 1 for a ball, 0.806 for a cube.
-double sphericity(const TriangleMesh& s) {
-  const SurfaceIntegrals i = surface_integrals(s);
-  return std::cbrt(std::numbers::pi) * std::pow(6.0 * i.volume, 2.0 / 3.0) / i.area;
-}
+using test::sphericity;
 
 /// The cube of the explicit surface-tension flow test (soft, nearly
 /// incompressible, damped; σ / (E L) = 0.25), stepped by backward Euler.
@@ -165,17 +162,8 @@ struct TenseCube {
   MeshedBody mb;
   BackwardEulerIntegrator integrator;
   TenseCube(double dt, double smoothing = 0.0)
-      : mb(mesh_body(make_box({0.2, 0.2, 0.2}, 24), material(), 0.05)), integrator(settings(dt, smoothing), {}) {}
-  static Material material() {
-    Material m;
-    m.density = 1000.0;
-    m.youngs_modulus = 100.0;
-    m.poisson_ratio = 0.499;
-    m.viscosity = 20.0;
-    m.surface_tension = 5.0;
-    m.min_mass_fraction = 0.1;
-    return m;
-  }
+      : mb(mesh_body(make_box({0.2, 0.2, 0.2}, 24), test::tense_cube_material(), 0.05)),
+        integrator(settings(dt, smoothing), {}) {}
   static BackwardEulerSettings settings(double dt, double smoothing) {
     BackwardEulerSettings s;
     s.gravity.setZero();

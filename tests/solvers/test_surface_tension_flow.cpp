@@ -7,15 +7,12 @@
 #include "core/surface_geometry.h"
 #include "solvers/newmark.h"
 #include "solvers/remesh.h"
+#include "tests/solvers/tense_cube.h"
 
 namespace goo {
 namespace {
 
-/// π^⅓ (6V)^⅔ / A: 1 for a ball, less for anything else (0.806 for a cube).
-double sphericity(const TriangleMesh& s) {
-  const SurfaceIntegrals i = surface_integrals(s);
-  return std::cbrt(std::numbers::pi) * std::pow(6.0 * i.volume, 2.0 / 3.0) / i.area;
-}
+using test::sphericity;
 
 struct Rounded {
   double sphericity;
@@ -28,13 +25,7 @@ struct Rounded {
 /// surface is finer than the lattice (as in use), so that its straight
 /// triangles follow the piecewise-linear deformation closely.
 Rounded rounds_a_cube(SurfaceTensionForm form, double smoothing) {
-  Material m;
-  m.density = 1000.0;
-  m.youngs_modulus = 100.0;
-  m.poisson_ratio = 0.499;
-  m.viscosity = 20.0;
-  m.surface_tension = 5.0;
-  m.min_mass_fraction = 0.1;
+  const Material m = test::tense_cube_material();
   const TriangleMesh cube = make_box({0.2, 0.2, 0.2}, 24);
   MeshedBody mb = mesh_body(cube, m, 0.05);
   NewmarkSettings settings;
