@@ -183,6 +183,13 @@ TEST_F(GooRestart, AfterSigintInTheMiddleOfAFrameResumingIsBitwiseIdentical) {
   ASSERT_EQ(WEXITSTATUS(status), 130) << "the run ended before the signal arrived";
   EXPECT_FALSE(fs::exists(dir / "c/frames/frame_00004.ply"));
   EXPECT_EQ(nlohmann::json::parse(slurp(dir / "c/summary.json"))["status"], "interrupted");
+  // The frame under way was finished, and the last frame written has its checkpoint.
+  fs::path last_frame;
+  for (const auto& entry : fs::directory_iterator(dir / "c/frames"))
+    if (last_frame.empty() || entry.path() > last_frame) last_frame = entry.path();
+  ASSERT_FALSE(last_frame.empty());
+  EXPECT_TRUE(fs::exists(dir / "c/checkpoints" / last_frame.filename().replace_extension(".h5")))
+      << last_frame.filename();
   // The checkpoint of the last whole frame.
   fs::path latest;
   for (const auto& entry : fs::directory_iterator(dir / "c/checkpoints"))
@@ -192,6 +199,35 @@ TEST_F(GooRestart, AfterSigintInTheMiddleOfAFrameResumingIsBitwiseIdentical) {
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
   expect_same_frames(dir / "a", dir / "c", 4);
   EXPECT_TRUE(bytes_of(dir / "a/checkpoints/frame_00004.h5") == bytes_of(dir / "c/checkpoints/frame_00004.h5"));
+}
+
+// A second signal stops at once: the frame under way is not finished, and
+// only the checkpoints already written remain.
+TEST_F(GooRestart, ASecondSignalStopsAtOnce) {
+  const test::TempDir& dir = *dir_;
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    const std::string out = (dir / "e").string(), scene = (dir / "drop.json").string();
+    ::freopen("/dev/null", "w", stderr);
+    ::execl(GOO_EXECUTABLE, GOO_EXECUTABLE, "run", scene.c_str(), "--out", out.c_str(), "--quiet",
+            static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(300);
+  while (!fs::exists(dir / "e/frames/frame_00001.ply") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  ::kill(child, SIGINT);
+  ::kill(child, SIGTERM);  // another signal number: two SIGINTs in a row may merge into one
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  ASSERT_EQ(WEXITSTATUS(status), 130);
+  EXPECT_EQ(nlohmann::json::parse(slurp(dir / "e/summary.json"))["status"], "interrupted");
+  EXPECT_FALSE(fs::exists(dir / "e/frames/frame_00002.ply"));
+  // One signal would have left the last whole frame's checkpoint; two leave
+  // only the periodic ones (every 2 frames: none yet).
+  EXPECT_TRUE(fs::is_empty(dir / "e/checkpoints"));
 }
 
 // Whoever reads goo's log may go away (a harness killed, `goo run | head`):
