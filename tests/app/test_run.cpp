@@ -161,40 +161,72 @@ TEST_F(GooRestart, ResumingContinuesBitwiseIdentically) {
   EXPECT_THAT(info.out, HasSubstr("cube:"));
 }
 
-TEST_F(GooRestart, AfterSigintInTheMiddleOfAFrameResumingIsBitwiseIdentical) {
-  const test::TempDir& dir = *dir_;
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    const std::string out = (dir / "c").string(), scene = (dir / "drop.json").string();
-    ::freopen("/dev/null", "w", stderr);
-    ::execl(GOO_EXECUTABLE, GOO_EXECUTABLE, "run", scene.c_str(), "--out", out.c_str(), "--quiet",
-            static_cast<char*>(nullptr));
+/// A `goo run SCENE --out OUT` in a child process, for the signal tests.
+/// Its stderr and stdout go to `output_fd` (/dev/null when -1, with --quiet).
+class GooChild {
+ public:
+  GooChild(const fs::path& scene, const fs::path& out, int output_fd = -1) : out_(out) {
+    pid_ = fork();
+    if (pid_ != 0) return;
+    const std::string out_text = out.string(), scene_text = scene.string();
+    if (output_fd < 0) {
+      ::freopen("/dev/null", "w", stderr);
+    } else {
+      ::dup2(output_fd, STDERR_FILENO);
+      ::dup2(output_fd, STDOUT_FILENO);
+    }
+    ::execl(GOO_EXECUTABLE, GOO_EXECUTABLE, "run", scene_text.c_str(), "--out", out_text.c_str(),
+            output_fd < 0 ? "--quiet" : static_cast<char*>(nullptr), static_cast<char*>(nullptr));
     ::_exit(127);
   }
+  [[nodiscard]] bool started() const { return pid_ > 0; }
+  /// Waits until frame 1 is out (then the run is in the middle of frame 2);
+  /// false if the child ended first.
+  bool wait_for_frame_one() {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(300);
+    while (!fs::exists(out_ / "frames/frame_00001.ply") && std::chrono::steady_clock::now() < deadline) {
+      if (::waitpid(pid_, &status_, WNOHANG) != 0) return ended_ = true, false;
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    return true;
+  }
+  void signal(int number) const { ::kill(pid_, number); }
+  /// The child's wait status once it has ended.
+  int wait() {
+    if (!ended_) ::waitpid(pid_, &status_, 0);
+    ended_ = true;
+    return status_;
+  }
+
+ private:
+  fs::path out_;
+  pid_t pid_ = -1;
+  int status_ = 0;
+  bool ended_ = false;
+};
+
+TEST_F(GooRestart, AfterSigintInTheMiddleOfAFrameResumingIsBitwiseIdentical) {
+  const test::TempDir& dir = *dir_;
+  GooChild child(dir / "drop.json", dir / "c");
+  ASSERT_TRUE(child.started());
   // Interrupt as soon as frame 1 is out: in the middle of frame 2.
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(300);
-  while (!fs::exists(dir / "c/frames/frame_00001.ply") && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::microseconds(200));
-  ::kill(child, SIGINT);
-  int status = 0;
-  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(child.wait_for_frame_one());
+  child.signal(SIGINT);
+  const int status = child.wait();
   ASSERT_TRUE(WIFEXITED(status));
   ASSERT_EQ(WEXITSTATUS(status), 130) << "the run ended before the signal arrived";
   EXPECT_FALSE(fs::exists(dir / "c/frames/frame_00004.ply"));
   EXPECT_EQ(nlohmann::json::parse(slurp(dir / "c/summary.json"))["status"], "interrupted");
   // The frame under way was finished, and the last frame written has its checkpoint.
-  fs::path last_frame;
-  for (const auto& entry : fs::directory_iterator(dir / "c/frames"))
-    if (last_frame.empty() || entry.path() > last_frame) last_frame = entry.path();
-  ASSERT_FALSE(last_frame.empty());
-  EXPECT_TRUE(fs::exists(dir / "c/checkpoints" / last_frame.filename().replace_extension(".h5")))
-      << last_frame.filename();
-  // The checkpoint of the last whole frame.
-  fs::path latest;
-  for (const auto& entry : fs::directory_iterator(dir / "c/checkpoints"))
-    if (latest.empty() || entry.path() > latest) latest = entry.path();
+  auto last_in = [](const fs::path& folder) {
+    fs::path last;
+    for (const auto& entry : fs::directory_iterator(folder))
+      if (last.empty() || entry.path() > last) last = entry.path();
+    return last;
+  };
+  const fs::path last_frame = last_in(dir / "c/frames"), latest = last_in(dir / "c/checkpoints");
   ASSERT_FALSE(latest.empty());
+  EXPECT_EQ(latest.filename(), fs::path(last_frame.filename()).replace_extension(".h5"));
   const CommandResult resumed = goo(args({"run --resume", quoted(latest), "--out", quoted(dir / "c"), "--quiet"}));
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
   expect_same_frames(dir / "a", dir / "c", 4);
@@ -205,22 +237,12 @@ TEST_F(GooRestart, AfterSigintInTheMiddleOfAFrameResumingIsBitwiseIdentical) {
 // only the checkpoints already written remain.
 TEST_F(GooRestart, ASecondSignalStopsAtOnce) {
   const test::TempDir& dir = *dir_;
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    const std::string out = (dir / "e").string(), scene = (dir / "drop.json").string();
-    ::freopen("/dev/null", "w", stderr);
-    ::execl(GOO_EXECUTABLE, GOO_EXECUTABLE, "run", scene.c_str(), "--out", out.c_str(), "--quiet",
-            static_cast<char*>(nullptr));
-    ::_exit(127);
-  }
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(300);
-  while (!fs::exists(dir / "e/frames/frame_00001.ply") && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::microseconds(200));
-  ::kill(child, SIGINT);
-  ::kill(child, SIGTERM);  // another signal number: two SIGINTs in a row may merge into one
-  int status = 0;
-  ::waitpid(child, &status, 0);
+  GooChild child(dir / "drop.json", dir / "e");
+  ASSERT_TRUE(child.started());
+  ASSERT_TRUE(child.wait_for_frame_one());
+  child.signal(SIGINT);
+  child.signal(SIGTERM);  // another signal number: two SIGINTs in a row may merge into one
+  const int status = child.wait();
   ASSERT_TRUE(WIFEXITED(status));
   ASSERT_EQ(WEXITSTATUS(status), 130);
   EXPECT_EQ(nlohmann::json::parse(slurp(dir / "e/summary.json"))["status"], "interrupted");
@@ -237,29 +259,12 @@ TEST_F(GooRestart, AClosedLogPipeDoesNotCostTheCheckpoint) {
   const test::TempDir& dir = *dir_;
   int pipe_ends[2];
   ASSERT_EQ(::pipe(pipe_ends), 0);
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    const std::string out = (dir / "d").string(), scene = (dir / "drop.json").string();
-    ::close(pipe_ends[0]);
-    ::dup2(pipe_ends[1], STDERR_FILENO);
-    ::dup2(pipe_ends[1], STDOUT_FILENO);
-    ::execl(GOO_EXECUTABLE, GOO_EXECUTABLE, "run", scene.c_str(), "--out", out.c_str(),
-            static_cast<char*>(nullptr));
-    ::_exit(127);
-  }
+  GooChild child(dir / "drop.json", dir / "d", pipe_ends[1]);
+  ASSERT_TRUE(child.started());
   ::close(pipe_ends[1]);
   ::close(pipe_ends[0]);  // nobody reads goo's output any more
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(300);
-  int status = 0;
-  pid_t ended = 0;  // the child, if it ended by itself (it should not)
-  while (!fs::exists(dir / "d/frames/frame_00001.ply") && std::chrono::steady_clock::now() < deadline &&
-         (ended = ::waitpid(child, &status, WNOHANG)) == 0)
-    std::this_thread::sleep_for(std::chrono::microseconds(200));
-  if (ended == 0) {
-    ::kill(child, SIGTERM);
-    ::waitpid(child, &status, 0);
-  }
+  if (child.wait_for_frame_one()) child.signal(SIGTERM);  // else it ended by itself: the status says how
+  const int status = child.wait();
   ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
   ASSERT_EQ(WEXITSTATUS(status), 130) << "the run ended before the signal arrived";
   EXPECT_EQ(nlohmann::json::parse(slurp(dir / "d/summary.json"))["status"], "interrupted");
