@@ -27,6 +27,7 @@ RemeshCheck check_remesh(const Body& body, const Points& x,
     const Eigen::Vector3d x0 = x.row(body.tets(e, 0));
     Eigen::Matrix3d Ds;
     for (int k = 0; k < 3; ++k) Ds.col(k) = x.row(body.tets(e, k + 1)).transpose() - x0;
+    if (!(Ds.determinant() > 0.0)) ++out.inverted;
     const double growth = condition_number(Ds) / body.rest_condition[e];
     if (growth > out.worst_growth) out.worst_growth = growth;
     if (growth > thresholds.condition_growth && out.element < 0) out.element = e;

@@ -16,6 +16,7 @@ struct RemeshCheck {
   Index element = -1;         ///< first element past its condition bound (or inverted)
   Index vertex = -1;          ///< first surface vertex past the barycentric bound
   double worst_growth = 0.0;  ///< max κ(Ds)/κ(Dm) (∞ for an inverted element)
+  Index inverted = 0;         ///< elements inverted or flat (det Ds ≤ 0)
 };
 
 /// κ(Ds) = σ_max / σ_min of the current edge matrix; ∞ if flat or inverted.

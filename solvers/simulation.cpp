@@ -252,9 +252,21 @@ void Simulation::step_body(std::size_t i, double max_dt) {
 
   // W&T fig. 8, last stage: a new lattice mesh around the current surface.
   start = Clock::now();
-  // A surface turned inside out (every element inverted: a mirrored body)
-  // encloses negative volume and bounds no solid a lattice could fill; the
-  // re-mesh waits until the elasticity has turned it right side out.
+  // The re-mesh waits while any element is inverted. An inverted element's
+  // state cannot be carried across (the transfer raises its stretches to
+  // min_stretch), and the material it holds overlaps its neighbours', so the
+  // surface folds through itself and encloses less than the material fills:
+  // a mirrored body, half way to right side out, encloses 10⁻³ of its volume,
+  // and the rest-volume correction would then compress the new mesh a
+  // thousandfold. The elasticity turns inverted elements back; the re-mesh
+  // goes ahead once none is left.
+  if (check.inverted > 0) {
+    log().debug("re-mesh of '{}' postponed: {} of {} elements are inverted", b.name, check.inverted,
+                b.body.num_elements());
+    times_.remesh += seconds_since(start);
+    return;
+  }
+  // A surface turned inside out bounds no solid a lattice could fill.
   const TriangleMesh surface = b.body.surface();
   if (const double volume = surface_integrals(surface).volume; !(volume > 0.0)) {
     log().debug("re-mesh of '{}' postponed: its surface is inside out (volume {:.3g} m³)", b.name, volume);

@@ -22,6 +22,7 @@ TEST(RemeshTrigger, RigidMotionAndUniformScaleNeverTrigger) {
   for (Index n = 0; n < body.num_nodes(); ++n) x.row(n) = (2.5 * R * x.row(n).transpose()).transpose();
   const RemeshCheck check = check_remesh(body, x, bary);
   EXPECT_FALSE(check.due);
+  EXPECT_EQ(check.inverted, 0);
   // κ is invariant under rotation and scale: the growth is 1 to round-off.
   EXPECT_NEAR(check.worst_growth, 1.0, 1e-12);
 }
@@ -43,7 +44,17 @@ TEST(RemeshTrigger, ConditionGrowthPastThreeTriggersAndNamesTheElement) {
   }
   Points inverted = body.rest_positions;
   inverted.row(body.tets(0, 0)) = inverted.row(body.tets(0, 1)) * 2.0 - inverted.row(body.tets(0, 0));
-  EXPECT_TRUE(check_remesh(body, inverted, bary).due);
+  const RemeshCheck check = check_remesh(body, inverted, bary);
+  EXPECT_TRUE(check.due);
+  // The elements around the moved node that turned, by the triple product.
+  Index turned = 0;
+  for (Index e = 0; e < body.num_elements(); ++e) {
+    const Eigen::Vector3d a = inverted.row(body.tets(e, 0));
+    const Eigen::Vector3d b = inverted.row(body.tets(e, 1)), c = inverted.row(body.tets(e, 2)), d = inverted.row(body.tets(e, 3));
+    if ((b - a).dot((c - a).cross(d - a)) <= 0.0) ++turned;
+  }
+  EXPECT_GE(turned, 1);
+  EXPECT_EQ(check.inverted, turned);
 }
 
 TEST(RemeshTrigger, BarycentricBelowMinusPointTwoTriggers) {
