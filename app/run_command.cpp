@@ -190,7 +190,7 @@ struct Outputs {
 };
 
 /// What a checkpoint adds to the simulation's own state.
-void add_run_fields(StateRecord& record, const Scene& scene, int frame, const SimulationTotals& initial) {
+void add_run_fields(StateSink& record, const Scene& scene, int frame, const SimulationTotals& initial) {
   record.put("run/frame", static_cast<std::int64_t>(frame));
   record.put("run/initial_mass", initial.mass);
   record.put("run/initial_volume", initial.volume);
@@ -251,6 +251,7 @@ int run_scene(const RunOptions& options) {
   const long long setup_peak_bytes = peak_memory_bytes();  // meshing done, nothing stepped
   int frame = 0;
   SimulationTotals initial = sim.totals();
+  const bool resuming = resumed.has_value();
   if (resumed) {
     sim.load(*resumed);
     frame = static_cast<int>(resumed->integer("run/frame"));
@@ -260,6 +261,7 @@ int run_scene(const RunOptions& options) {
     if (frame > last_frame)
       throw Error(fmt::format("{}: the checkpoint is at frame {}, past the last frame {} asked for", *options.resume,
                               frame, last_frame));
+    resumed.reset();  // the simulation holds the state now; a second copy would last the whole run
   }
 
   // 2. The output folder.
@@ -267,18 +269,17 @@ int run_scene(const RunOptions& options) {
   if (!ec) fs::create_directories(folder / "checkpoints", ec);
   if (ec) throw Error(fmt::format("{}: cannot create the output folder: {}", folder.string(), ec.message()));
   Outputs outputs{folder, &scene.output, nullptr, 0.0};
-  if (scene.output.hdf5) outputs.run_file = std::make_unique<io::RunFile>(folder, resumed ? frame + 1 : 0);
+  if (scene.output.hdf5) outputs.run_file = std::make_unique<io::RunFile>(folder, resuming ? frame + 1 : 0);
   double checkpoint_seconds = 0.0;
-  auto write_checkpoint = [&](const StateRecord& record) {
+  // Each array goes to the file as the simulation hands it over: a second
+  // copy of the whole state would be the run's peak of memory.
+  auto write_checkpoint = [&](int f) {
     const auto start = Clock::now();
-    const int f = static_cast<int>(record.integer("run/frame"));
-    io::write_checkpoint(folder / "checkpoints" / fmt::format("frame_{:05d}.h5", f), record);
+    io::CheckpointWriter writer(folder / "checkpoints" / fmt::format("frame_{:05d}.h5", f));
+    sim.save(writer);
+    add_run_fields(writer, scene, f, initial);
+    writer.commit();
     checkpoint_seconds += seconds_since(start);
-  };
-  auto snapshot = [&](int f) {
-    StateRecord record = sim.save();
-    add_run_fields(record, scene, f, initial);
-    return record;
   };
 
   if (!options.quiet) {
@@ -287,7 +288,7 @@ int run_scene(const RunOptions& options) {
                scene.source, scene.objects.size(), t.elements, t.surface_triangles, to_string(scene.integrator),
                frame, last_frame, scene.output.fps, folder.string());
   }
-  if (!resumed) outputs.write_frame(0, sim);
+  if (!resuming) outputs.write_frame(0, sim);
 
   // 3. Frames. Each frame boundary is a restart point, so a checkpoint taken
   // there resumes bitwise identically. A first SIGINT or SIGTERM finishes
@@ -346,7 +347,7 @@ int run_scene(const RunOptions& options) {
       break;
     }
     const int every = scene.checkpoint_every_frames;
-    if (every > 0 && frame > first_frame && frame % every == 0) write_checkpoint(snapshot(frame));
+    if (every > 0 && frame > first_frame && frame % every == 0) write_checkpoint(frame);
     bool completed = false;
     try {
       completed = sim.advance_to((frame + 1) / scene.output.fps, stop_now);
@@ -376,7 +377,7 @@ int run_scene(const RunOptions& options) {
   if (exit_code == 0 || (exit_code == kExitInterrupted && g_signals == 1)) {
     progress.finish();
     if (exit_code == kExitInterrupted) log().warn("interrupted: writing the checkpoint of frame {}", frame);
-    write_checkpoint(snapshot(frame));  // the run's end, or the frame finished after a signal
+    write_checkpoint(frame);  // the run's end, or the frame finished after a signal
   }
 
   // 4. The summary.

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <numeric>
 
 #include "core/error.h"
@@ -12,60 +13,72 @@ std::size_t StateArray::size() const {
   return std::accumulate(shape.begin(), shape.end(), std::size_t{1}, std::multiplies<>());
 }
 
-void StateRecord::put_array(const std::string& name, StateArray array) {
+void check_state_array(const std::string& name, const StateArray& array) {
   if (array.size() != (array.integer ? array.integers.size() : array.reals.size()))
     throw Error(fmt::format("state '{}': shape does not match its {} values", name,
                             array.integer ? array.integers.size() : array.reals.size()));
+}
+
+void StateRecord::put_array(const std::string& name, StateArray array) {
+  check_state_array(name, array);
   arrays_[name] = std::move(array);
 }
 
-void StateRecord::put(const std::string& name, double value) { put_array(name, {{}, false, {value}, {}}); }
+void StateSink::put(const std::string& name, double value) { put_array(name, {{}, false, {value}, {}}); }
 
-void StateRecord::put(const std::string& name, std::int64_t value) { put_array(name, {{}, true, {}, {value}}); }
+void StateSink::put(const std::string& name, std::int64_t value) { put_array(name, {{}, true, {}, {value}}); }
 
-void StateRecord::put_matrix(const std::string& name, const Eigen::Ref<const Eigen::MatrixXd>& matrix) {
-  StateArray a;
-  a.shape = {static_cast<std::size_t>(matrix.rows()), static_cast<std::size_t>(matrix.cols())};
-  a.reals.reserve(a.size());
-  for (Eigen::Index r = 0; r < matrix.rows(); ++r)
-    for (Eigen::Index c = 0; c < matrix.cols(); ++c) a.reals.push_back(matrix(r, c));
-  put_array(name, std::move(a));
-}
-
-void StateRecord::put_vector(const std::string& name, const Eigen::VectorXd& vector) {
-  put_array(name, {{static_cast<std::size_t>(vector.size())}, false, {vector.data(), vector.data() + vector.size()}, {}});
+void StateSink::put_vector(const std::string& name, const Eigen::VectorXd& vector) {
+  put_rows(name, {static_cast<std::size_t>(vector.size())}, false,
+           [&](std::size_t first, std::size_t count, double* out, std::int64_t*) {
+             std::copy_n(vector.data() + first, count, out);
+           });
 }
 
 namespace {
 template <class M>
-StateArray integer_matrix(const M& m) {
-  StateArray a;
-  a.integer = true;
-  a.shape = {static_cast<std::size_t>(m.rows()), static_cast<std::size_t>(m.cols())};
-  a.integers.reserve(a.size());
-  for (Eigen::Index r = 0; r < m.rows(); ++r)
-    for (Eigen::Index c = 0; c < m.cols(); ++c) a.integers.push_back(m(r, c));
-  return a;
+StateSink::RowFiller integer_rows(const M& m) {
+  return [&m](std::size_t first, std::size_t count, double*, std::int64_t* out) {
+    for (auto r = static_cast<Eigen::Index>(first); r < static_cast<Eigen::Index>(first + count); ++r)
+      for (Eigen::Index c = 0; c < m.cols(); ++c) *out++ = m(r, c);
+  };
 }
 }  // namespace
 
-void StateRecord::put(const std::string& name, const Tets& tets) { put_array(name, integer_matrix(tets)); }
-
-void StateRecord::put(const std::string& name, const Triangles& triangles) {
-  put_array(name, integer_matrix(triangles));
+void StateSink::put(const std::string& name, const Tets& tets) {
+  put_rows(name, {static_cast<std::size_t>(tets.rows()), 4}, true, integer_rows(tets));
 }
 
-void StateRecord::put(const std::string& name, const std::vector<Index>& values) {
-  put_array(name, {{values.size()}, true, {}, {values.begin(), values.end()}});
+void StateSink::put(const std::string& name, const Triangles& triangles) {
+  put_rows(name, {static_cast<std::size_t>(triangles.rows()), 3}, true, integer_rows(triangles));
 }
 
-void StateRecord::put(const std::string& name, const std::vector<Eigen::Matrix3d>& matrices) {
+void StateSink::put(const std::string& name, const std::vector<Index>& values) {
+  put_rows(name, {values.size()}, true, [&](std::size_t first, std::size_t count, double*, std::int64_t* out) {
+    std::copy_n(values.begin() + static_cast<std::ptrdiff_t>(first), count, out);
+  });
+}
+
+void StateSink::put(const std::string& name, const std::vector<Eigen::Matrix3d>& matrices) {
+  put_rows(name, {matrices.size(), 3, 3}, false, [&](std::size_t first, std::size_t count, double* out, std::int64_t*) {
+    for (std::size_t k = first; k < first + count; ++k)
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) *out++ = matrices[k](r, c);
+  });
+}
+
+void StateSink::put_rows(const std::string& name, std::vector<std::size_t> shape, bool integer, const RowFiller& fill) {
   StateArray a;
-  a.shape = {matrices.size(), 3, 3};
-  a.reals.reserve(a.size());
-  for (const auto& m : matrices)
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) a.reals.push_back(m(r, c));
+  a.shape = std::move(shape);
+  a.integer = integer;
+  const std::size_t rows = a.shape.empty() ? 1 : a.shape[0];
+  if (integer) {
+    a.integers.resize(a.size());
+    fill(0, rows, nullptr, a.integers.data());
+  } else {
+    a.reals.resize(a.size());
+    fill(0, rows, a.reals.data(), nullptr);
+  }
   put_array(name, std::move(a));
 }
 

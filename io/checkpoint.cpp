@@ -8,8 +8,11 @@
 #include <array>
 #include <cerrno>
 #include <cstring>
+#include <cstdint>
 #include <fstream>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "core/error.h"
 #include "io/detail/hdf5_handle.h"
@@ -32,12 +35,37 @@ std::uint64_t fnv1a(const char* data, std::size_t size, std::uint64_t hash = 0xc
   return hash;
 }
 
-std::string read_all(const std::filesystem::path& path) {
+/// FNV-1a of the bytes of `path` from `offset` on, read a block at a time
+/// (a checkpoint is as large as the state: it is never held whole); and the
+/// file's length.
+std::pair<std::uint64_t, std::uintmax_t> hash_file(const std::filesystem::path& path, std::uintmax_t offset,
+                                                   const std::filesystem::path& shown) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(fmt::format("{}: cannot open the checkpoint: {}", shown.string(), std::strerror(errno)));
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  std::uintmax_t length = 0;
+  std::vector<char> block(std::size_t{1} << 20);
+  while (in) {
+    in.read(block.data(), static_cast<std::streamsize>(block.size()));
+    const auto got = static_cast<std::uintmax_t>(in.gcount());
+    if (length + got > offset) {
+      const std::uintmax_t skip = length >= offset ? 0 : offset - length;
+      hash = fnv1a(block.data() + skip, static_cast<std::size_t>(got - skip), hash);
+    }
+    length += got;
+  }
+  if (in.bad()) throw Error(fmt::format("{}: reading failed: {}", shown.string(), std::strerror(errno)));
+  return {hash, length};
+}
+
+/// The file's first kUserBlock bytes (fewer if it is shorter).
+std::string read_user_block(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(fmt::format("{}: cannot open the checkpoint: {}", path.string(), std::strerror(errno)));
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
+  std::string block(kUserBlock, '\0');
+  in.read(block.data(), static_cast<std::streamsize>(block.size()));
+  block.resize(static_cast<std::size_t>(in.gcount()));
+  return block;
 }
 
 void check(herr_t status, const std::filesystem::path& path, std::string_view what) {
@@ -90,24 +118,60 @@ H5Handle checksummed(const std::vector<hsize_t>& dims) {
   return plist;
 }
 
-void write_dataset(hid_t root, const std::string& name, const StateArray& a, const std::filesystem::path& path) {
+/// Creates dataset `name` of the given shape (a scalar: shape {}) and writes
+/// it a chunk of rows at a time, each filled by `fill` into one buffer.
+void write_rows(hid_t root, const std::string& name, const std::vector<std::size_t>& shape, bool integer,
+                const StateSink::RowFiller& fill, const std::filesystem::path& path) {
   make_groups(root, name, path);
-  std::vector<hsize_t> dims(a.shape.begin(), a.shape.end());
+  std::vector<hsize_t> dims(shape.begin(), shape.end());
   const bool scalar = dims.empty();
   if (scalar) dims = {1};
   std::vector<hsize_t> max(dims.size(), H5S_UNLIMITED);
   H5Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), max.data()), H5Sclose);
   const H5Handle plist = checksummed(dims);
-  H5Handle set(check(H5Dcreate2(root, name.c_str(), a.integer ? H5T_STD_I64LE : H5T_IEEE_F64LE, space, H5P_DEFAULT,
+  H5Handle set(check(H5Dcreate2(root, name.c_str(), integer ? H5T_STD_I64LE : H5T_IEEE_F64LE, space, H5P_DEFAULT,
                                 plist, H5P_DEFAULT),
                      path, "create " + name),
                H5Dclose);
-  if (a.size() > 0) {
-    check(a.integer ? H5Dwrite(set, H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.integers.data())
-                    : H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.reals.data()),
-          path, "write " + name);
+  hsize_t row_size = 1;
+  for (std::size_t k = 1; k < dims.size(); ++k) row_size *= dims[k];
+  hsize_t block = 0;  // rows per write: one chunk's
+  H5Pget_chunk(plist, 1, &block);
+  std::vector<double> reals;
+  std::vector<std::int64_t> integers;
+  for (hsize_t first = 0; first < dims[0] && row_size > 0; first += block) {
+    const hsize_t count = std::min(block, dims[0] - first);
+    std::vector<hsize_t> start(dims.size(), 0), extent = dims;
+    start[0] = first;
+    extent[0] = count;
+    check(H5Sselect_hyperslab(space, H5S_SELECT_SET, start.data(), nullptr, extent.data(), nullptr), path,
+          "select rows of " + name);
+    H5Handle memory(H5Screate_simple(static_cast<int>(extent.size()), extent.data(), nullptr), H5Sclose);
+    if (integer) {
+      integers.resize(count * row_size);
+      fill(first, count, nullptr, integers.data());
+      check(H5Dwrite(set, H5T_NATIVE_INT64, memory, space, H5P_DEFAULT, integers.data()), path, "write " + name);
+    } else {
+      reals.resize(count * row_size);
+      fill(first, count, reals.data(), nullptr);
+      check(H5Dwrite(set, H5T_NATIVE_DOUBLE, memory, space, H5P_DEFAULT, reals.data()), path, "write " + name);
+    }
   }
   if (scalar) set_int_attribute(set, "scalar", 1, path);
+}
+
+void write_dataset(hid_t root, const std::string& name, const StateArray& a, const std::filesystem::path& path) {
+  std::size_t row_size = 1;
+  for (std::size_t k = 1; k < a.shape.size(); ++k) row_size *= a.shape[k];
+  write_rows(root, name, a.shape, a.integer,
+             [&](std::size_t first, std::size_t count, double* reals, std::int64_t* integers) {
+               const std::size_t begin = first * row_size, end = (first + count) * row_size;
+               if (integers) std::copy(a.integers.begin() + static_cast<std::ptrdiff_t>(begin),
+                                       a.integers.begin() + static_cast<std::ptrdiff_t>(end), integers);
+               else std::copy(a.reals.begin() + static_cast<std::ptrdiff_t>(begin),
+                              a.reals.begin() + static_cast<std::ptrdiff_t>(end), reals);
+             },
+             path);
 }
 
 void write_string(hid_t root, const std::string& name, const std::string& value, const std::filesystem::path& path) {
@@ -125,24 +189,6 @@ void write_string(hid_t root, const std::string& name, const std::string& value,
   std::string padded = value;
   padded.resize(std::max<std::size_t>(value.size(), 1), '\0');
   check(H5Dwrite(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, padded.data()), path, "write " + name);
-}
-
-void write_hdf5(const std::filesystem::path& file, const std::filesystem::path& shown, const StateRecord& record) {
-  H5Handle fcpl(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
-  check(H5Pset_userblock(fcpl, kUserBlock), shown, "reserve the user block");
-  H5Pset_obj_track_times(fcpl, 0);  // the root group too
-  H5Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
-  // 1.10 formats: checksummed superblock and object headers.
-  check(H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_V110), shown, "select the file format");
-  H5Handle f(check(H5Fcreate(file.c_str(), H5F_ACC_TRUNC, fcpl, fapl), shown, "create the file"), H5Fclose);
-  set_string_attribute(f, "format", kMagic, shown);
-  set_int_attribute(f, "format_version", kCheckpointFormatVersion, shown);
-  H5Handle gcpl(H5Pcreate(H5P_GROUP_CREATE), H5Pclose);
-  H5Pset_obj_track_times(gcpl, 0);
-  H5Handle state(check(H5Gcreate2(f, "state", H5P_DEFAULT, gcpl, H5P_DEFAULT), shown, "create /state"), H5Gclose);
-  for (const auto& [name, array] : record.arrays()) write_dataset(state, name, array, shown);
-  for (const auto& [name, value] : record.strings()) write_string(state, name, value, shown);
-  check(H5Fflush(f, H5F_SCOPE_GLOBAL), shown, "flush");
 }
 
 struct Visit {
@@ -201,51 +247,111 @@ herr_t read_object(hid_t root, const char* name, const H5L_info_t* /*info*/, voi
 
 }  // namespace
 
-void write_checkpoint(const std::filesystem::path& path, const StateRecord& record,
-                      const std::function<void()>& before_rename) {
+struct CheckpointWriter::Impl {
   detail::SilenceHdf5Errors quiet;
-  const std::filesystem::path folder = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
+  std::filesystem::path path, folder, temporary;
+  H5Handle file, state;
+  bool committed = false;
+};
+
+CheckpointWriter::CheckpointWriter(std::filesystem::path path) : impl_(std::make_unique<Impl>()) {
+  Impl& w = *impl_;
+  w.path = std::move(path);
+  w.folder = w.path.has_parent_path() ? w.path.parent_path() : std::filesystem::path(".");
   std::error_code ec;
-  if (!std::filesystem::is_directory(folder, ec))
-    throw Error(fmt::format("{}: cannot write: folder '{}' does not exist", path.string(), folder.string()));
-  const std::filesystem::path temporary =
-      folder / fmt::format(".{}.tmp-{}", path.filename().string(), static_cast<long>(::getpid()));
+  if (!std::filesystem::is_directory(w.folder, ec))
+    throw Error(fmt::format("{}: cannot write: folder '{}' does not exist", w.path.string(), w.folder.string()));
+  w.temporary = w.folder / fmt::format(".{}.tmp-{}", w.path.filename().string(), static_cast<long>(::getpid()));
+  const std::filesystem::path& shown = w.path;
+  H5Handle fcpl(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
+  check(H5Pset_userblock(fcpl, kUserBlock), shown, "reserve the user block");
+  H5Pset_obj_track_times(fcpl, 0);  // the root group too
+  H5Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  // 1.10 formats: checksummed superblock and object headers.
+  check(H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_V110), shown, "select the file format");
+  w.file = H5Handle(check(H5Fcreate(w.temporary.c_str(), H5F_ACC_TRUNC, fcpl, fapl), shown, "create the file"),
+                    H5Fclose);
   try {
-    write_hdf5(temporary, path, record);
-    // The user block: magic, version, length and the checksum of the rest.
-    std::string bytes = read_all(temporary);
-    if (bytes.size() < kUserBlock) throw Error(fmt::format("{}: HDF5 wrote a short file", path.string()));
-    const std::uint64_t hash = fnv1a(bytes.data() + kUserBlock, bytes.size() - kUserBlock);
-    std::string header = fmt::format("{}\nformat_version {}\nlength {}\nfnv1a64 {:016x}\n", kMagic,
-                                     kCheckpointFormatVersion, bytes.size(), hash);
-    header.resize(kUserBlock, '\0');
-    const int fd = ::open(temporary.c_str(), O_WRONLY);
-    if (fd < 0) throw Error(fmt::format("{}: cannot reopen: {}", path.string(), std::strerror(errno)));
-    const bool ok = ::pwrite(fd, header.data(), kUserBlock, 0) == static_cast<ssize_t>(kUserBlock) && ::fsync(fd) == 0;
-    ::close(fd);
-    if (!ok) throw Error(fmt::format("{}: writing failed: {}", path.string(), std::strerror(errno)));
-    if (before_rename) before_rename();
-    std::filesystem::rename(temporary, path, ec);
-    if (ec) throw Error(fmt::format("{}: cannot replace it: {}", path.string(), ec.message()));
-    const int dir = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY);
-    if (dir >= 0) {
-      ::fsync(dir);
-      ::close(dir);
-    }
+    set_string_attribute(w.file, "format", kMagic, shown);
+    set_int_attribute(w.file, "format_version", kCheckpointFormatVersion, shown);
+    H5Handle gcpl(H5Pcreate(H5P_GROUP_CREATE), H5Pclose);
+    H5Pset_obj_track_times(gcpl, 0);
+    w.state = H5Handle(check(H5Gcreate2(w.file, "state", H5P_DEFAULT, gcpl, H5P_DEFAULT), shown, "create /state"),
+                       H5Gclose);
   } catch (...) {
-    std::filesystem::remove(temporary, ec);
+    w.file.reset();
+    std::filesystem::remove(w.temporary, ec);
     throw;
   }
 }
 
+CheckpointWriter::~CheckpointWriter() {
+  if (!impl_ || impl_->committed) return;
+  impl_->state.reset();
+  impl_->file.reset();
+  std::error_code ec;
+  std::filesystem::remove(impl_->temporary, ec);
+}
+
+void CheckpointWriter::put_array(const std::string& name, StateArray array) {
+  check_state_array(name, array);
+  write_dataset(impl_->state, name, array, impl_->path);
+}
+
+void CheckpointWriter::put_rows(const std::string& name, std::vector<std::size_t> shape, bool integer,
+                                const RowFiller& fill) {
+  write_rows(impl_->state, name, shape, integer, fill, impl_->path);
+}
+
+void CheckpointWriter::put_string(const std::string& name, std::string value) {
+  write_string(impl_->state, name, value, impl_->path);
+}
+
+void CheckpointWriter::commit(const std::function<void()>& before_rename) {
+  Impl& w = *impl_;
+  const std::filesystem::path& path = w.path;
+  check(H5Fflush(w.file, H5F_SCOPE_GLOBAL), path, "flush");
+  w.state.reset();
+  w.file.reset();
+  // The user block: magic, version, length and the checksum of the rest.
+  const auto [hash, length] = hash_file(w.temporary, kUserBlock, path);
+  if (length < kUserBlock) throw Error(fmt::format("{}: HDF5 wrote a short file", path.string()));
+  std::string header = fmt::format("{}\nformat_version {}\nlength {}\nfnv1a64 {:016x}\n", kMagic,
+                                   kCheckpointFormatVersion, length, hash);
+  header.resize(kUserBlock, '\0');
+  const int fd = ::open(w.temporary.c_str(), O_WRONLY);
+  if (fd < 0) throw Error(fmt::format("{}: cannot reopen: {}", path.string(), std::strerror(errno)));
+  const bool ok = ::pwrite(fd, header.data(), kUserBlock, 0) == static_cast<ssize_t>(kUserBlock) && ::fsync(fd) == 0;
+  ::close(fd);
+  if (!ok) throw Error(fmt::format("{}: writing failed: {}", path.string(), std::strerror(errno)));
+  if (before_rename) before_rename();
+  std::error_code ec;
+  std::filesystem::rename(w.temporary, path, ec);
+  if (ec) throw Error(fmt::format("{}: cannot replace it: {}", path.string(), ec.message()));
+  w.committed = true;
+  const int dir = ::open(w.folder.c_str(), O_RDONLY | O_DIRECTORY);
+  if (dir >= 0) {
+    ::fsync(dir);
+    ::close(dir);
+  }
+}
+
+void write_checkpoint(const std::filesystem::path& path, const StateRecord& record,
+                      const std::function<void()>& before_rename) {
+  CheckpointWriter writer(path);
+  for (const auto& [name, array] : record.arrays()) writer.put_array(name, array);
+  for (const auto& [name, value] : record.strings()) writer.put_string(name, value);
+  writer.commit(before_rename);
+}
+
 StateRecord read_checkpoint(const std::filesystem::path& path) {
   detail::SilenceHdf5Errors quiet;
-  const std::string bytes = read_all(path);
+  const std::string bytes = read_user_block(path);
   const std::string name = path.string();
   if (bytes.size() < kUserBlock || bytes.compare(0, std::strlen(kMagic), kMagic) != 0)
     throw Error(fmt::format("{}: not a goo checkpoint (no '{}' header{})", name, kMagic,
                             bytes.size() < kUserBlock ? "; the file is shorter than one" : ""));
-  std::istringstream header(bytes.substr(0, kUserBlock));
+  std::istringstream header(bytes);
   std::string magic, key;
   int version = 0;
   std::size_t length = 0;
@@ -259,15 +365,16 @@ StateRecord read_checkpoint(const std::filesystem::path& path) {
   if (key != "length") throw Error(fmt::format("{}: damaged checkpoint header", name));
   header >> key >> hash_text;
   if (key != "fnv1a64") throw Error(fmt::format("{}: damaged checkpoint header", name));
-  if (bytes.size() != length)
-    throw Error(fmt::format("{}: truncated or extended checkpoint ({} bytes, the header says {})", name, bytes.size(),
+  const auto [hash, file_length] = hash_file(path, kUserBlock, path);
+  if (file_length != length)
+    throw Error(fmt::format("{}: truncated or extended checkpoint ({} bytes, the header says {})", name, file_length,
                             length));
   // The whole block must be exactly what write_checkpoint puts there (padding included).
   std::string canonical =
       fmt::format("{}\nformat_version {}\nlength {}\nfnv1a64 {}\n", kMagic, version, length, hash_text);
   canonical.resize(kUserBlock, '\0');
   if (bytes.compare(0, kUserBlock, canonical) != 0) throw Error(fmt::format("{}: damaged checkpoint header", name));
-  const std::string actual = fmt::format("{:016x}", fnv1a(bytes.data() + kUserBlock, bytes.size() - kUserBlock));
+  const std::string actual = fmt::format("{:016x}", hash);
   if (actual != hash_text)
     throw Error(fmt::format("{}: corrupt checkpoint: checksum {} does not match the recorded {}", name, actual,
                             hash_text));

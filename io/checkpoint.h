@@ -12,6 +12,7 @@
 // an interrupted write leaves the previous checkpoint as it was.
 #include <filesystem>
 #include <functional>
+#include <memory>
 
 #include "core/state_record.h"
 
@@ -19,7 +20,36 @@ namespace goo::io {
 
 inline constexpr int kCheckpointFormatVersion = 1;
 
-/// Writes `record` to `path` atomically. `before_rename` (tests) runs after
+/// Writes a checkpoint to `path` atomically, each array as it is put: the
+/// state is never held twice. Nothing replaces `path` until commit(); a
+/// writer destroyed before then (an error, a stop) removes its temporary
+/// file and leaves `path` as it was.
+class CheckpointWriter final : public StateSink {
+ public:
+  explicit CheckpointWriter(std::filesystem::path path);
+  ~CheckpointWriter() override;
+  CheckpointWriter(const CheckpointWriter&) = delete;
+  CheckpointWriter& operator=(const CheckpointWriter&) = delete;
+  CheckpointWriter(CheckpointWriter&&) = delete;
+  CheckpointWriter& operator=(CheckpointWriter&&) = delete;
+
+  void put_array(const std::string& name, StateArray array) override;
+  void put_string(const std::string& name, std::string value) override;
+  /// Completes the file and renames it over `path`. `before_rename` (tests)
+  /// runs after the temporary file is complete; if it throws, the temporary
+  /// file is removed and `path` is untouched.
+  void commit(const std::function<void()>& before_rename = {});
+
+ protected:
+  /// Writes a chunk of rows at a time: a block of 64k values is all it holds.
+  void put_rows(const std::string& name, std::vector<std::size_t> shape, bool integer, const RowFiller& fill) override;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Writes `record` to `path` atomically (a CheckpointWriter). `before_rename` (tests) runs after
 /// the temporary file is complete and before it replaces `path`; if it
 /// throws, the temporary file is removed and `path` is untouched.
 void write_checkpoint(const std::filesystem::path& path, const StateRecord& record,

@@ -357,6 +357,11 @@ TriangleMesh Simulation::surface() const {
 
 StateRecord Simulation::save() const {
   StateRecord r;
+  save(r);
+  return r;
+}
+
+void Simulation::save(StateSink& r) const {
   r.put("time", time_);
   r.put("steps", steps_);
   r.put("remeshes", remeshes_);
@@ -381,11 +386,10 @@ StateRecord Simulation::save() const {
     r.put_vector(p + "rest_condition", body.rest_condition);
     r.put(p + "surface_triangles", body.surface_triangles);
     r.put(p + "embedding_parent", body.embedding.parent);
-    r.put_matrix(p + "embedding_bary", Eigen::MatrixXd(body.embedding.bary));
+    r.put_matrix(p + "embedding_bary", body.embedding.bary);
     r.put(p + "pinned", b.pinned);
     r.put(p + "rest_material_volume", body.rest_material_volume);
   }
-  return r;
 }
 
 void Simulation::load(const StateRecord& r) {

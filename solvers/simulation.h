@@ -79,6 +79,8 @@ class Simulation {
 
   /// The complete state (every array of every body, clock, counters).
   [[nodiscard]] StateRecord save() const;
+  /// The same, array by array into `sink` (a checkpoint writes each as it comes).
+  void save(StateSink& sink) const;
   /// Replaces the state with a saved one of the same scene (goo::Error if
   /// it does not fit: missing arrays, wrong shapes, another body count).
   void load(const StateRecord& record);

@@ -127,6 +127,80 @@ TEST(Checkpoint, AnInterruptedWriteLeavesThePreviousOneIntact) {
   EXPECT_EQ(io::read_checkpoint(dir / "c.h5").real("time"), 0.125);
 }
 
+TEST(Checkpoint, AWriterAbandonedMidStateLeavesThePreviousOneIntact) {
+  // A run stopped (or failing) while its arrays stream into the file.
+  test::TempDir dir;
+  io::write_checkpoint(dir / "c.h5", sample_record());
+  const std::string before = read_bytes(dir / "c.h5");
+  {
+    io::CheckpointWriter writer(dir / "c.h5");
+    writer.put("time", 0.5);
+    writer.put_matrix("bodies/0/positions", Eigen::MatrixXd::Ones(1000, 3));
+    int files = 0;
+    for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir.path())) ++files;
+    EXPECT_EQ(files, 2);  // the checkpoint and the temporary file being written
+  }
+  EXPECT_EQ(read_bytes(dir / "c.h5"), before);
+  int files = 0;
+  for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir.path())) ++files;
+  EXPECT_EQ(files, 1);
+  // A field put twice is refused, naming it, and nothing is replaced.
+  EXPECT_TRUE(test::throws_error_containing(
+      [&] {
+        io::CheckpointWriter writer(dir / "c.h5");
+        writer.put("time", 0.5);
+        writer.put("time", 0.75);
+        writer.commit();
+      },
+      "time"));
+  EXPECT_EQ(read_bytes(dir / "c.h5"), before);
+}
+
+TEST(Checkpoint, AStreamedStateEqualsTheRecordWrittenWhole) {
+  // Arrays of many chunks, each kind the simulation puts, into a record and
+  // straight into a writer; larger than the checksum's 1 MiB read block, so
+  // that a flip past the first block is caught too.
+  const Index n = 100000;
+  Points x(n, 3);
+  Tets tets(n, 4);
+  std::vector<Eigen::Matrix3d> matrices(static_cast<std::size_t>(n) / 4);
+  std::vector<Index> parents(static_cast<std::size_t>(n));
+  for (Index i = 0; i < n; ++i) {
+    const auto v = static_cast<double>(i);
+    x.row(i) << v, 0.5 * v, -0.25 * v;
+    tets.row(i) << i, i + 1, 3 * i, n - i;
+    parents[static_cast<std::size_t>(i)] = n - i;
+  }
+  for (std::size_t k = 0; k < matrices.size(); ++k) matrices[k] = Eigen::Matrix3d::Random() * static_cast<double>(k);
+  auto fill = [&](StateSink& sink) {
+    sink.put("time", 0.5);
+    sink.put_matrix("bodies/0/positions", x);
+    sink.put("bodies/0/tets", tets);
+    sink.put("bodies/0/Fp", matrices);
+    sink.put("bodies/0/embedding_parent", parents);
+    sink.put("bodies/0/surface_triangles", Triangles(0, 3));
+    sink.put_string("scene/text", "{}");
+  };
+  StateRecord r;
+  fill(r);
+  test::TempDir dir;
+  {
+    io::CheckpointWriter writer(dir / "s.h5");
+    fill(writer);
+    writer.commit();
+  }
+  EXPECT_TRUE(io::read_checkpoint(dir / "s.h5") == r);
+  io::write_checkpoint(dir / "w.h5", r);
+  EXPECT_TRUE(io::read_checkpoint(dir / "w.h5") == r);
+  const std::string bytes = read_bytes(dir / "s.h5");
+  ASSERT_GT(bytes.size(), std::size_t{2} << 20);
+  std::string flipped = bytes;
+  const std::size_t at = (std::size_t{3} << 20) / 2;  // in the second block
+  flipped[at] = static_cast<char>(flipped[at] ^ 0x04);
+  write_bytes(dir / "f.h5", flipped);
+  EXPECT_TRUE(test::throws_error_containing([&] { io::read_checkpoint(dir / "f.h5"); }, "corrupt checkpoint"));
+}
+
 TEST(Checkpoint, MissingOrMistypedFieldsAreNamed) {
   const StateRecord r = sample_record();
   EXPECT_TRUE(test::throws_error_containing([&] { (void)r.real("nope"); }, "'nope' is missing"));
