@@ -4,7 +4,6 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <array>
 #include <bit>
 #include <limits>
 
@@ -44,16 +43,25 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
     for (Index s = 0; s < nv; ++s) vertices_[at(fill[at(body.embedding.parent[at(s)])]++)] = s;
   }
   std::vector<Eigen::AlignedBox3d> bounds;
+  std::vector<PlacedShape> placed;
   bounds.reserve(obstacles.size());
-  for (const Obstacle& o : obstacles) bounds.push_back(o.bounds(t));
+  placed.reserve(obstacles.size());
+  for (const Obstacle& o : obstacles) {
+    bounds.push_back(o.bounds(t));
+    placed.push_back(o.at(t));
+  }
 
-  std::vector<Hit> per_element(at(ne), Hit{-1, -1, -1, {}});
+  // 1. Per element, the obstacles that may touch its surface vertices. The
+  // element's box, widened by its own size, holds them: a vertex drifts out
+  // of its parent to a barycentric coordinate of −0.2, at most 0.6 of the
+  // box's extent beyond it, and moves by dt v. So does the ball around the
+  // box's centre through its corners; a signed distance is 1-Lipschitz, so
+  // an obstacle farther from that centre than the ball's radius touches none.
+  const std::size_t words = (obstacles.size() + 63) / 64;
+  near_.assign(at(ne) * words, 0);
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
     for (Index e = r.begin(); e != r.end(); ++e) {
       if (offsets_[at(e)] == offsets_[at(e) + 1]) continue;
-      // The element's box, widened by its own size: surface vertices may
-      // drift out of their parent (to a barycentric coordinate of −0.2) and
-      // move by dt v.
       Eigen::AlignedBox3d box;
       for (int k = 0; k < 4; ++k) {
         box.extend(x.row(body.tets(e, k)).transpose());
@@ -61,50 +69,47 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
       }
       const Eigen::Vector3d grow = Eigen::Vector3d::Constant(box.diagonal().maxCoeff());
       box.extend(box.min() - grow).extend(box.max() + grow);
-      Hit best{-1, -1, -1, {}};
-      best.contact.distance = 0.0;
-      bool near = false;
-      for (std::size_t o = 0; o < obstacles.size(); ++o) near = near || bounds[o].intersects(box);
-      if (!near) {
-        per_element[at(e)] = best;
-        continue;
-      }
-      // The element's vertices (predicted), and the ball around their mean
-      // that holds them: a signed distance is 1-Lipschitz, so an obstacle
-      // farther from the centre than the radius touches none of them.
-      std::array<Eigen::Vector3d, 64> local;
-      const Index count = std::min<Index>(offsets_[at(e) + 1] - offsets_[at(e)], 64);
-      Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-      for (Index c = 0; c < count; ++c) {
-        const Index s = vertices_[at(offsets_[at(e)] + c)];
-        Eigen::Vector3d p = vertex_value(body, x, s);
-        if (v) p += dt * vertex_value(body, *v, s);
-        local[at(c)] = p;
-        centre += p;
-      }
-      const bool all_local = count == offsets_[at(e) + 1] - offsets_[at(e)];
-      centre /= static_cast<double>(count);
-      double radius = 0.0;
-      for (Index c = 0; c < count; ++c) radius = std::max(radius, (local[at(c)] - centre).norm());
-      for (std::size_t o = 0; o < obstacles.size(); ++o) {
-        if (!bounds[o].intersects(box)) continue;
-        if (all_local && obstacles[o].query(centre, t).distance > radius) continue;
-        for (Index c = offsets_[at(e)]; c < offsets_[at(e) + 1]; ++c) {
-          const Index s = vertices_[at(c)];
-          Eigen::Vector3d p;
-          if (c - offsets_[at(e)] < count) {
-            p = local[at(c - offsets_[at(e)])];
-          } else {
-            p = vertex_value(body, x, s);
-            if (v) p += dt * vertex_value(body, *v, s);
-          }
-          const SignedDistance sd = obstacles[o].query(p, t);
-          if (sd.distance < best.contact.distance) best = {e, s, static_cast<Index>(o), sd};
-        }
-      }
-      per_element[at(e)] = best;
+      const Eigen::Vector3d centre = box.center();
+      const double radius = 0.5 * box.diagonal().norm();
+      for (std::size_t o = 0; o < obstacles.size(); ++o)
+        if (bounds[o].intersects(box) && placed[o].query(centre).distance <= radius)
+          near_[at(e) * words + o / 64] |= std::uint64_t{1} << (o % 64);
     }
   });
+
+  // 2. Every vertex against its element's near obstacles, in vertex order:
+  // the embedding's arrays are read in sequence (a fine surface has a
+  // hundred vertices and more per element, and reading them element by
+  // element missed the cache at every vertex).
+  constexpr Index kChunk = 4096;
+  std::vector<std::vector<Hit>> chunks(at((nv + kChunk - 1) / kChunk));
+  tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t chunk) {
+    const Index begin = static_cast<Index>(chunk) * kChunk, end = std::min(nv, begin + kChunk);
+    for (Index s = begin; s < end; ++s) {
+      const Index e = body.embedding.parent[at(s)];
+      const std::uint64_t* mask = near_.data() + at(e) * words;
+      if (std::all_of(mask, mask + words, [](std::uint64_t w) { return w == 0; })) continue;
+      Eigen::Vector3d p = vertex_value(body, x, s);
+      if (v) p += dt * vertex_value(body, *v, s);
+      for (std::size_t o = 0; o < obstacles.size(); ++o) {
+        if (!((mask[o / 64] >> (o % 64)) & 1U)) continue;
+        const SignedDistance sd = placed[o].query(p);
+        if (sd.distance < 0.0) chunks[chunk].push_back({e, s, static_cast<Index>(o), sd});
+      }
+    }
+  });
+
+  // 3. The deepest hit of each element; of equal depths, the lower
+  // obstacle, then the lower vertex.
+  std::vector<Hit> per_element(at(ne), Hit{-1, -1, -1, {}});
+  for (const auto& chunk : chunks)
+    for (const Hit& h : chunk) {
+      Hit& best = per_element[at(h.element)];
+      if (best.element < 0 || h.contact.distance < best.contact.distance ||
+          (h.contact.distance == best.contact.distance &&
+           (h.obstacle < best.obstacle || (h.obstacle == best.obstacle && h.vertex < best.vertex))))
+        best = h;
+    }
   std::vector<Hit> hits;
   for (const Hit& h : per_element)
     if (h.element >= 0) hits.push_back(h);
@@ -175,6 +180,8 @@ CollisionStats SurfaceCollisions::resolve_positions(Body& body, const std::vecto
                                                     const std::vector<std::uint8_t>& fixed, int max_passes) {
   CollisionStats stats;
   if (obstacles.empty() || body.embedding.num_vertices() == 0) return stats;
+  std::vector<PlacedShape> placed;
+  for (const Obstacle& o : obstacles) placed.push_back(o.at(t));
   for (int pass = 0; pass < max_passes; ++pass) {
     const std::vector<Hit> hits = detect(body, body.positions, nullptr, 0.0, obstacles, t);
     if (hits.empty()) break;
@@ -189,7 +196,7 @@ CollisionStats SurfaceCollisions::resolve_positions(Body& body, const std::vecto
         deepest.distance = 0.0;
         for (Index c = offsets_[at(hit.element)]; c < offsets_[at(hit.element) + 1]; ++c) {
           const Index s = vertices_[at(c)];
-          const SignedDistance sd = obstacles[at(hit.obstacle)].query(vertex_value(body, body.positions, s), t);
+          const SignedDistance sd = placed[at(hit.obstacle)].query(vertex_value(body, body.positions, s));
           if (sd.distance < deepest.distance) {
             deepest = sd;
             deepest_vertex = s;

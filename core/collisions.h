@@ -21,9 +21,9 @@ struct CollisionStats {
 /// Resolves collisions for one body, in parallel and deterministically:
 /// elements to correct are coloured greedily in element order so that no
 /// two of one colour share a node, and colours run one after another (each
-/// in parallel). The tet mesh is the bounding-volume hierarchy: an element
-/// whose box, widened for vertices drifting out of it, misses every
-/// obstacle is skipped.
+/// in parallel). The tet mesh is the bounding-volume hierarchy: the
+/// vertices of an element whose box, widened for vertices drifting out of
+/// it, misses every obstacle are skipped.
 class SurfaceCollisions {
  public:
   /// Velocity stage, on v (the body's node velocities or v½): a vertex that
@@ -53,6 +53,7 @@ class SurfaceCollisions {
   std::vector<std::vector<std::size_t>> colour(const Body& body, const std::vector<Hit>& hits);
 
   std::vector<Index> offsets_, vertices_;  // element → its surface vertices
+  std::vector<std::uint64_t> near_;         // per element, the obstacles near it (a bit each)
   std::vector<std::uint64_t> masks_;        // per node, colours used (two words)
 };
 

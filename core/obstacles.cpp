@@ -175,12 +175,21 @@ Eigen::Vector3d RigidMotion::angular_velocity(double t) const {
   return aa.axis() * (aa.angle() / (b.time - a.time));
 }
 
-SignedDistance Obstacle::query(const Eigen::Vector3d& x, double t) const {
-  const Eigen::Isometry3d T = motion.transform(t);
-  SignedDistance sd = shape->signed_distance(T.inverse() * x);
-  sd.normal = T.linear() * sd.normal;
+SignedDistance PlacedShape::query(const Eigen::Vector3d& x) const {
+  SignedDistance sd = shape->signed_distance(to_local * x);
+  sd.normal = to_world.linear() * sd.normal;
   return sd;
 }
+
+PlacedShape Obstacle::at(double t) const {
+  PlacedShape out;
+  out.shape = shape.get();
+  out.to_world = motion.transform(t);
+  out.to_local = out.to_world.inverse();
+  return out;
+}
+
+SignedDistance Obstacle::query(const Eigen::Vector3d& x, double t) const { return at(t).query(x); }
 
 Eigen::Vector3d Obstacle::velocity(const Eigen::Vector3d& x, double t) const {
   if (motion.is_static()) return Eigen::Vector3d::Zero();

@@ -69,6 +69,16 @@ class RigidMotion {
   std::vector<Key> keys_;
 };
 
+/// An obstacle's shape placed at one instant: its transform computed once,
+/// for the many queries of a collision pass.
+struct PlacedShape {
+  const Shape* shape = nullptr;
+  Eigen::Isometry3d to_world = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d to_local = Eigen::Isometry3d::Identity();
+  /// Signed distance and outward normal at the world point x.
+  [[nodiscard]] SignedDistance query(const Eigen::Vector3d& x) const;
+};
+
 struct Obstacle {
   std::string name;
   std::shared_ptr<const Shape> shape;
@@ -77,6 +87,8 @@ struct Obstacle {
 
   /// Signed distance and outward normal at the world point x, time t.
   [[nodiscard]] SignedDistance query(const Eigen::Vector3d& x, double t) const;
+  /// The shape where it is at time t (query(x, t) is at(t).query(x)).
+  [[nodiscard]] PlacedShape at(double t) const;
   /// Velocity of the obstacle's material at the world point x, time t.
   [[nodiscard]] Eigen::Vector3d velocity(const Eigen::Vector3d& x, double t) const;
   /// World bounds at time t (unbounded for a half-space).

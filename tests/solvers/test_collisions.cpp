@@ -2,6 +2,7 @@
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <random>
 
 #include "core/collisions.h"
 #include "core/primitives.h"
@@ -63,6 +64,34 @@ TEST(Collisions, ResolvedVertexLandsExactlyOnTheObstacle) {
     // It moved along the obstacle's normal, by the penetration depth.
     EXPECT_NEAR((after - before).norm(), -obstacle.query(before, 0.0).distance, 1e-15);
   }
+}
+
+// A fine surface puts hundreds of vertices in one element: the deepest of
+// them is the one resolved, whatever obstacles far away there are.
+TEST(Collisions, TheDeepestOfHundredsOfVerticesInOneElementIsResolved) {
+  Body body = single_element(Eigen::Vector4d(0.25, 0.25, 0.25, 0.25));
+  const int n = 500;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  body.embedding.parent.assign(n, 0);
+  body.embedding.bary.resize(n, 4);
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector4d b(u(rng), u(rng), u(rng), u(rng));
+    body.embedding.bary.row(i) = (b / b.sum()).transpose();
+  }
+  // A ball moved far away by its motion, then the floor through the element.
+  RigidMotion far({RigidMotion::Key{0.0, Eigen::Vector3d(5, 5, 5), Eigen::Quaterniond::Identity()}});
+  const std::vector<Obstacle> obstacles{Obstacle{"far ball", make_sphere_shape(0.1), far, 0.0}, floor_at(0.3)};
+  const Points before = body.surface().vertices;
+  Index deepest = 0;
+  for (Index i = 1; i < n; ++i)
+    if (before(i, 2) < before(deepest, 2)) deepest = i;
+  ASSERT_LT(before(deepest, 2), 0.3);
+  SurfaceCollisions collisions;
+  const CollisionStats stats = collisions.resolve_positions(body, obstacles, 0.0, {}, 1);
+  EXPECT_EQ(stats.resolved, 1);  // one element
+  EXPECT_NEAR(stats.deepest, before(deepest, 2) - 0.3, 1e-15);
+  EXPECT_NEAR(body.surface().vertices(deepest, 2), 0.3, 1e-15);  // the deepest landed on the floor
 }
 
 // Velocities: the normal relative velocity of the resolved vertex becomes
