@@ -248,6 +248,10 @@ int run_scene(const RunOptions& options) {
     throw Error(fmt::format("{}: --out must be a folder", folder.string()));
 
   Simulation sim(scene);
+  for (SceneObject& object : scene.objects) {  // meshed: the simulation holds them now
+    object.surface.reset();
+    object.tet_mesh.reset();
+  }
   const long long setup_peak_bytes = peak_memory_bytes();  // meshing done, nothing stepped
   int frame = 0;
   SimulationTotals initial = sim.totals();

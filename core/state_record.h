@@ -25,9 +25,9 @@ struct StateArray {
 };
 
 /// Where a state goes, array by array: a StateRecord keeps them; a
-/// checkpoint writer (io) writes each as it comes, so a checkpoint never
-/// holds a second copy of the whole state. The typed puts convert to a
-/// StateArray and hand it to put_array.
+/// checkpoint writer (io) writes each as it comes, a block of rows at a
+/// time, so a checkpoint never holds a second copy of the state. The typed
+/// puts of arrays hand their rows to put_rows; scalars go to put_array.
 class StateSink {
  public:
   virtual ~StateSink() = default;
