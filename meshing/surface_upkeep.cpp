@@ -26,12 +26,17 @@ Eigen::Vector3d point(const TriangleMesh& s, Index v) { return s.vertices.row(v)
 
 double length(const TriangleMesh& s, const Edge& e) { return (point(s, e.first) - point(s, e.second)).norm(); }
 
-/// Unique edges, sorted by length (descending if `longest_first`), ties by ids.
-std::vector<Edge> sorted_edges(const TriangleMesh& s, bool longest_first) {
+/// The unique edges longer than `limit` (`longer`) or shorter than it,
+/// longest (shortest) first, ties by ids. A fine surface has millions of
+/// edges and, at a re-mesh, few of either kind: only those are sorted.
+std::vector<Edge> edges_beyond(const TriangleMesh& s, double limit, bool longer) {
   std::vector<Edge> edges;
-  edges.reserve(static_cast<std::size_t>(3 * s.num_triangles()));
   for (Index t = 0; t < s.num_triangles(); ++t)
-    for (int k = 0; k < 3; ++k) edges.push_back(edge(s.triangles(t, k), s.triangles(t, (k + 1) % 3)));
+    for (int k = 0; k < 3; ++k) {
+      const Edge e = edge(s.triangles(t, k), s.triangles(t, (k + 1) % 3));
+      const double l = length(s, e);
+      if (longer ? l > limit : l < limit) edges.push_back(e);
+    }
   std::sort(edges.begin(), edges.end());
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
   std::vector<double> lengths(edges.size());
@@ -39,30 +44,35 @@ std::vector<Edge> sorted_edges(const TriangleMesh& s, bool longest_first) {
   std::vector<std::size_t> order(edges.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
   std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
-    return longest_first ? lengths[x] > lengths[y] : lengths[x] < lengths[y];
+    return longer ? lengths[x] > lengths[y] : lengths[x] < lengths[y];
   });
   std::vector<Edge> out(edges.size());
   for (std::size_t i = 0; i < order.size(); ++i) out[i] = edges[order[i]];
   return out;
 }
 
-/// Triangles at each directed edge: triangle t has a → b at corner k.
-std::unordered_map<Edge, std::vector<Index>, EdgeHash> edge_triangles(const TriangleMesh& s) {
+/// The triangles at each of `edges` (triangle t has the edge at corner k → k + 1).
+std::unordered_map<Edge, std::vector<Index>, EdgeHash> edge_triangles(const TriangleMesh& s,
+                                                                     const std::vector<Edge>& edges) {
   std::unordered_map<Edge, std::vector<Index>, EdgeHash> out;
-  out.reserve(static_cast<std::size_t>(3 * s.num_triangles()));
+  out.reserve(edges.size());
+  for (const Edge& e : edges) out[e];
   for (Index t = 0; t < s.num_triangles(); ++t)
-    for (int k = 0; k < 3; ++k) out[edge(s.triangles(t, k), s.triangles(t, (k + 1) % 3))].push_back(t);
+    for (int k = 0; k < 3; ++k)
+      if (const auto it = out.find(edge(s.triangles(t, k), s.triangles(t, (k + 1) % 3))); it != out.end())
+        it->second.push_back(t);
   return out;
 }
 
 Index split_pass(TriangleMesh& s, double limit) {
-  const auto triangles_of = edge_triangles(s);
+  const std::vector<Edge> long_edges = edges_beyond(s, limit, true);
+  if (long_edges.empty()) return 0;
+  const auto triangles_of = edge_triangles(s, long_edges);
   std::vector<std::uint8_t> touched(at(s.num_triangles()), 0);
   std::vector<Eigen::Vector3i> added;
   std::vector<Eigen::RowVector3d> new_vertices;
   Index splits = 0;
-  for (const Edge& e : sorted_edges(s, true)) {
-    if (length(s, e) <= limit) break;
+  for (const Edge& e : long_edges) {
     const auto& around = triangles_of.at(e);
     if (around.size() != 2 || touched[at(around[0])] || touched[at(around[1])]) continue;
     const auto m = static_cast<Index>(s.num_vertices() + static_cast<Index>(new_vertices.size()));
@@ -100,6 +110,11 @@ struct CollapsePass {
 
 CollapsePass collapse_pass(TriangleMesh& s, double limit) {
   CollapsePass out;
+  // Edges shorter than the limit when the pass starts, shortest first. (A
+  // collapse moves vertices, but only those of edges it marks dirty, which
+  // the pass then skips: no other edge comes below the limit.)
+  const std::vector<Edge> short_edges = edges_beyond(s, limit, false);
+  if (short_edges.empty()) return out;
   const Index nv = s.num_vertices(), nt = s.num_triangles();
   std::vector<std::vector<Index>> star(at(nv));
   for (Index t = 0; t < nt; ++t)
@@ -115,7 +130,7 @@ CollapsePass collapse_pass(TriangleMesh& s, double limit) {
     out_v.erase(std::unique(out_v.begin(), out_v.end()), out_v.end());
     return out_v;
   };
-  for (const Edge& e : sorted_edges(s, false)) {
+  for (const Edge& e : short_edges) {
     if (length(s, e) >= limit) break;
     const auto [a, b] = e;
     if (dirty[at(a)] || dirty[at(b)]) continue;
