@@ -116,13 +116,24 @@ CollapsePass collapse_pass(TriangleMesh& s, double limit) {
   const std::vector<Edge> short_edges = edges_beyond(s, limit, false);
   if (short_edges.empty()) return out;
   const Index nv = s.num_vertices(), nt = s.num_triangles();
-  std::vector<std::vector<Index>> star(at(nv));
+  // The triangles around the ends of those edges: the only stars the pass
+  // reads (slot[v] ≥ 0 for those vertices).
+  std::vector<Index> slot(at(nv), -1);
+  std::vector<std::vector<Index>> stars;
+  for (const Edge& e : short_edges)
+    for (const Index v : {e.first, e.second})
+      if (slot[at(v)] < 0) {
+        slot[at(v)] = static_cast<Index>(stars.size());
+        stars.emplace_back();
+      }
   for (Index t = 0; t < nt; ++t)
-    for (int k = 0; k < 3; ++k) star[at(s.triangles(t, k))].push_back(t);
+    for (int k = 0; k < 3; ++k)
+      if (const Index v = s.triangles(t, k); slot[at(v)] >= 0) stars[at(slot[at(v)])].push_back(t);
+  auto star = [&](Index v) -> std::vector<Index>& { return stars[at(slot[at(v)])]; };
   std::vector<std::uint8_t> dead(at(nt), 0), dirty(at(nv), 0);
   auto neighbours = [&](Index v) {
     std::vector<Index> out_v;
-    for (const Index t : star[at(v)])
+    for (const Index t : star(v))
       if (!dead[at(t)])
         for (int k = 0; k < 3; ++k)
           if (s.triangles(t, k) != v) out_v.push_back(s.triangles(t, k));
@@ -139,10 +150,10 @@ CollapsePass collapse_pass(TriangleMesh& s, double limit) {
     std::vector<Index> common;
     std::set_intersection(na.begin(), na.end(), nb.begin(), nb.end(), std::back_inserter(common));
     std::vector<Index> sides, keep;
-    for (const Index t : star[at(a)])
+    for (const Index t : star(a))
       if (!dead[at(t)] && (s.triangles.row(t).array() == b).any()) sides.push_back(t);
     for (const Index v : {a, b})
-      for (const Index t : star[at(v)])
+      for (const Index t : star(v))
         if (!dead[at(t)] && !(s.triangles.row(t).array() == a).any() != !(s.triangles.row(t).array() == b).any())
           keep.push_back(t);
     if (common.size() != 2 || sides.size() != 2 || na.size() <= 3 || nb.size() <= 3) {
@@ -165,10 +176,10 @@ CollapsePass collapse_pass(TriangleMesh& s, double limit) {
       return v / 6.0;
     };
     double before = 0.0;
-    for (const Index t : star[at(a)])
+    for (const Index t : star(a))
       if (!dead[at(t)]) before += cone6(point(s, s.triangles(t, 0)) - mid, point(s, s.triangles(t, 1)) - mid,
                                          point(s, s.triangles(t, 2)) - mid) / 6.0;
-    for (const Index t : star[at(b)])
+    for (const Index t : star(b))
       if (!dead[at(t)] && !(s.triangles.row(t).array() == a).any())
         before += cone6(point(s, s.triangles(t, 0)) - mid, point(s, s.triangles(t, 1)) - mid,
                         point(s, s.triangles(t, 2)) - mid) / 6.0;
@@ -196,11 +207,11 @@ CollapsePass collapse_pass(TriangleMesh& s, double limit) {
     out.volume_change += std::abs(volume_with(p) - before);
     s.vertices.row(a) = p.transpose();
     for (const Index t : sides) dead[at(t)] = 1;
-    for (const Index t : star[at(b)])
+    for (const Index t : star(b))
       if (!dead[at(t)]) {
         for (int k = 0; k < 3; ++k)
           if (s.triangles(t, k) == b) s.triangles(t, k) = a;
-        star[at(a)].push_back(t);
+        star(a).push_back(t);
       }
     // The neighbourhood changed: its edges wait for the next pass.
     dirty[at(a)] = dirty[at(b)] = 1;
