@@ -28,9 +28,7 @@ Eigen::Vector4d distribution_weights(const Body& body, Index vertex) {
 
 }  // namespace
 
-std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, const Points& x, const Points* v,
-                                                              double dt, const std::vector<Obstacle>& obstacles,
-                                                              double t) {
+void SurfaceCollisions::index_vertices(const Body& body) {
   const Index ne = body.num_elements();
   const Index nv = body.embedding.num_vertices();
   // Element → its surface vertices (counting sort: vertices increasing).
@@ -38,10 +36,15 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
   for (Index s = 0; s < nv; ++s) ++offsets_[at(body.embedding.parent[at(s)]) + 1];
   for (std::size_t e = 0; e + 1 < offsets_.size(); ++e) offsets_[e + 1] += offsets_[e];
   vertices_.resize(at(nv));
-  {
-    std::vector<Index> fill(offsets_.begin(), offsets_.end() - 1);
-    for (Index s = 0; s < nv; ++s) vertices_[at(fill[at(body.embedding.parent[at(s)])]++)] = s;
-  }
+  std::vector<Index> fill(offsets_.begin(), offsets_.end() - 1);
+  for (Index s = 0; s < nv; ++s) vertices_[at(fill[at(body.embedding.parent[at(s)])]++)] = s;
+}
+
+std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, const Points& x, const Points* v,
+                                                              double dt, const std::vector<Obstacle>& obstacles,
+                                                              double t, const std::vector<std::uint8_t>* only) {
+  const Index ne = body.num_elements();
+  const Index nv = body.embedding.num_vertices();
   std::vector<Eigen::AlignedBox3d> bounds;
   std::vector<PlacedShape> placed;
   bounds.reserve(obstacles.size());
@@ -61,7 +64,7 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
   near_.assign(at(ne) * words, 0);
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
     for (Index e = r.begin(); e != r.end(); ++e) {
-      if (offsets_[at(e)] == offsets_[at(e) + 1]) continue;
+      if (offsets_[at(e)] == offsets_[at(e) + 1] || (only && !(*only)[at(e)])) continue;
       Eigen::AlignedBox3d box;
       for (int k = 0; k < 4; ++k) {
         box.extend(x.row(body.tets(e, k)).transpose());
@@ -144,6 +147,7 @@ CollisionStats SurfaceCollisions::resolve_velocities(const Body& body, Points& v
                                                      const std::vector<std::uint8_t>& fixed) {
   CollisionStats stats;
   if (obstacles.empty() || body.embedding.num_vertices() == 0) return stats;
+  index_vertices(body);
   const std::vector<Hit> hits = detect(body, body.positions, &v, dt, obstacles, t);
   if (hits.empty()) return stats;
   stats.passes = 1;
@@ -182,9 +186,17 @@ CollisionStats SurfaceCollisions::resolve_positions(Body& body, const std::vecto
   if (obstacles.empty() || body.embedding.num_vertices() == 0) return stats;
   std::vector<PlacedShape> placed;
   for (const Obstacle& o : obstacles) placed.push_back(o.at(t));
+  index_vertices(body);
+  // After the first pass, only elements that had a hit or have a node that
+  // moved can have one: the others' vertices stand where they were
+  // measured. So later passes look at those alone, and find what a full
+  // detection would.
+  std::vector<std::uint8_t> moved, again;
   for (int pass = 0; pass < max_passes; ++pass) {
-    const std::vector<Hit> hits = detect(body, body.positions, nullptr, 0.0, obstacles, t);
+    const std::vector<Hit> hits =
+        detect(body, body.positions, nullptr, 0.0, obstacles, t, pass == 0 ? nullptr : &again);
     if (hits.empty()) break;
+    moved.assign(at(body.num_nodes()), 0);
     ++stats.passes;
     for (const Hit& h : hits) stats.deepest = std::min(stats.deepest, h.contact.distance);
     for (const auto& members : colour(body, hits)) {
@@ -209,10 +221,17 @@ CollisionStats SurfaceCollisions::resolve_positions(Body& body, const std::vecto
           const Index node = body.tets(hit.element, k);
           if (!fixed.empty() && fixed[at(node)]) continue;
           body.positions.row(node) += w[k] * dx.transpose();
+          moved[at(node)] = 1;  // one element of a colour per node: no race
         }
       });
     }
     stats.resolved += static_cast<Index>(hits.size());
+    again.assign(at(body.num_elements()), 0);
+    for (const Hit& h : hits) again[at(h.element)] = 1;
+    for (Index n = 0; n < body.num_nodes(); ++n)
+      if (moved[at(n)])
+        for (Index c = body.incidence.offsets[at(n)]; c < body.incidence.offsets[at(n) + 1]; ++c)
+          again[at(body.incidence.corners[at(c)] / 4)] = 1;
   }
   return stats;
 }

@@ -46,9 +46,13 @@ class SurfaceCollisions {
     Index obstacle;
     SignedDistance contact;
   };
-  /// The deepest hit of every element (of those that have one), in element order.
+  /// Element → its surface vertices (offsets_, vertices_), for the calls of detect that follow.
+  void index_vertices(const Body& body);
+  /// The deepest hit of every element (of those that have one, and are
+  /// flagged in `only` if given), in element order.
   std::vector<Hit> detect(const Body& body, const Points& x, const Points* v, double dt,
-                          const std::vector<Obstacle>& obstacles, double t);
+                          const std::vector<Obstacle>& obstacles, double t,
+                          const std::vector<std::uint8_t>* only = nullptr);
   /// Element colour classes of the hits: hits of one class share no node.
   std::vector<std::vector<std::size_t>> colour(const Body& body, const std::vector<Hit>& hits);
 
