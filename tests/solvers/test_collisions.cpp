@@ -129,6 +129,30 @@ Drop block(double h = 0.1) {
   return d;
 }
 
+// Passes after the first look again only where the earlier one moved
+// nodes; they must find what full detections find: four passes in one call
+// equal four calls of one pass each, bit for bit.
+TEST(Collisions, LaterPassesFindWhatAFullDetectionFinds) {
+  Drop d = block();
+  Body& body = d.body.body;
+  body.positions.col(2).array() -= 0.3;  // sunk 0.05 m into the floor and a sloped wall
+  const std::vector<Obstacle> obstacles{
+      floor_at(0.0), Obstacle{"wall", make_half_space(Eigen::Vector3d(1.0, 0.2, 0.3), 0.1), {}, 0.0}};
+  Body one_call = body, four_calls = body;
+  SurfaceCollisions a, b;
+  const CollisionStats together = a.resolve_positions(one_call, obstacles, 0.0, {}, 4);
+  CollisionStats apart;
+  for (int pass = 0; pass < 4; ++pass) {
+    const CollisionStats s = b.resolve_positions(four_calls, obstacles, 0.0, {}, 1);
+    apart.passes += s.passes;
+    apart.resolved += s.resolved;
+  }
+  EXPECT_GE(together.passes, 3);  // two passes at least looked again where the first moved nodes
+  EXPECT_EQ(together.passes, apart.passes);
+  EXPECT_EQ(together.resolved, apart.resolved);
+  EXPECT_TRUE(one_call.positions == four_calls.positions);
+}
+
 TEST(Collisions, BodyDroppedOnTheFloorComesToRestAboveIt) {
   Drop d = block();
   d.settings.max_time_step = 2.5e-3;
