@@ -205,6 +205,15 @@ class GooChild {
   bool ended_ = false;
 };
 
+/// Waits for a signalled run: it must exit (not be killed) with 130 and say
+/// so in its summary.
+void expect_interrupted(GooChild& child, const fs::path& out) {
+  const int status = child.wait();
+  ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  ASSERT_EQ(WEXITSTATUS(status), 130) << "the run ended before the signal arrived";
+  EXPECT_EQ(nlohmann::json::parse(slurp(out / "summary.json"))["status"], "interrupted");
+}
+
 TEST_F(GooRestart, AfterSigintInTheMiddleOfAFrameResumingIsBitwiseIdentical) {
   const test::TempDir& dir = *dir_;
   GooChild child(dir / "drop.json", dir / "c");
@@ -212,11 +221,8 @@ TEST_F(GooRestart, AfterSigintInTheMiddleOfAFrameResumingIsBitwiseIdentical) {
   // Interrupt as soon as frame 1 is out: in the middle of frame 2.
   ASSERT_TRUE(child.wait_for_frame_one());
   child.signal(SIGINT);
-  const int status = child.wait();
-  ASSERT_TRUE(WIFEXITED(status));
-  ASSERT_EQ(WEXITSTATUS(status), 130) << "the run ended before the signal arrived";
+  ASSERT_NO_FATAL_FAILURE(expect_interrupted(child, dir / "c"));
   EXPECT_FALSE(fs::exists(dir / "c/frames/frame_00004.ply"));
-  EXPECT_EQ(nlohmann::json::parse(slurp(dir / "c/summary.json"))["status"], "interrupted");
   // The frame under way was finished, and the last frame written has its checkpoint.
   auto last_in = [](const fs::path& folder) {
     fs::path last;
@@ -242,10 +248,7 @@ TEST_F(GooRestart, ASecondSignalStopsAtOnce) {
   ASSERT_TRUE(child.wait_for_frame_one());
   child.signal(SIGINT);
   child.signal(SIGTERM);  // another signal number: two SIGINTs in a row may merge into one
-  const int status = child.wait();
-  ASSERT_TRUE(WIFEXITED(status));
-  ASSERT_EQ(WEXITSTATUS(status), 130);
-  EXPECT_EQ(nlohmann::json::parse(slurp(dir / "e/summary.json"))["status"], "interrupted");
+  ASSERT_NO_FATAL_FAILURE(expect_interrupted(child, dir / "e"));
   EXPECT_FALSE(fs::exists(dir / "e/frames/frame_00002.ply"));
   // One signal would have left the last whole frame's checkpoint; two leave
   // only the periodic ones (every 2 frames: none yet).
@@ -264,10 +267,7 @@ TEST_F(GooRestart, AClosedLogPipeDoesNotCostTheCheckpoint) {
   ::close(pipe_ends[1]);
   ::close(pipe_ends[0]);  // nobody reads goo's output any more
   if (child.wait_for_frame_one()) child.signal(SIGTERM);  // else it ended by itself: the status says how
-  const int status = child.wait();
-  ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
-  ASSERT_EQ(WEXITSTATUS(status), 130) << "the run ended before the signal arrived";
-  EXPECT_EQ(nlohmann::json::parse(slurp(dir / "d/summary.json"))["status"], "interrupted");
+  ASSERT_NO_FATAL_FAILURE(expect_interrupted(child, dir / "d"));
   EXPECT_FALSE(fs::is_empty(dir / "d/checkpoints"));
 }
 
