@@ -21,6 +21,7 @@
 #include "io/run_file.h"
 #include "io/scene_io.h"
 #include "io/surface_mesh_io.h"
+#include "meshing/surface_intersections.h"
 #include "solvers/linear_algebra_threads.h"
 #include "solvers/simulation.h"
 
@@ -154,15 +155,30 @@ class Progress {
   double shown_ = -1e9;
 };
 
+nlohmann::json to_json(const SurfaceQuality& q) {
+  return {{"triangles", q.triangles},
+          {"edges", q.edges},
+          {"self_intersecting_pairs", q.self_intersecting_pairs},
+          {"creased_edges", q.creased_edges},
+          {"degenerate_triangles", q.degenerate_triangles},
+          {"area", q.area},
+          {"volume", q.volume}};
+}
+
 struct Outputs {
   fs::path folder;
   const OutputSettings* settings;
   std::unique_ptr<io::RunFile> run_file;
-  double seconds = 0.0;
+  double seconds = 0.0;          ///< writing frames
+  double quality_seconds = 0.0;  ///< measuring them
+  SurfaceQuality quality;        ///< of the last frame written
 
   void write_frame(int frame, const Simulation& sim) {
-    const auto start = Clock::now();
     const TriangleMesh surface = sim.surface();
+    const auto measured = Clock::now();
+    quality = measure_surface_quality(surface);
+    quality_seconds += seconds_since(measured);
+    const auto start = Clock::now();
     const fs::path frames = folder / "frames";
     if (settings->ply) io::write_surface_mesh(frames / fmt::format("frame_{:05d}.ply", frame), surface);
     if (settings->obj) io::write_surface_mesh(frames / fmt::format("frame_{:05d}.obj", frame), surface);
@@ -272,7 +288,7 @@ int run_scene(const RunOptions& options) {
   fs::create_directories(folder / "frames", ec);
   if (!ec) fs::create_directories(folder / "checkpoints", ec);
   if (ec) throw Error(fmt::format("{}: cannot create the output folder: {}", folder.string(), ec.message()));
-  Outputs outputs{folder, &scene.output, nullptr, 0.0};
+  Outputs outputs{folder, &scene.output, nullptr, 0.0, 0.0, {}};
   if (scene.output.hdf5) outputs.run_file = std::make_unique<io::RunFile>(folder, resuming ? frame + 1 : 0);
   double checkpoint_seconds = 0.0;
   // Each array goes to the file as the simulation hands it over: a second
@@ -293,6 +309,8 @@ int run_scene(const RunOptions& options) {
                frame, last_frame, scene.output.fps, folder.string());
   }
   if (!resuming) outputs.write_frame(0, sim);
+  // Frame 0's surface (a resumed run wrote it before).
+  const nlohmann::json initial_surface = resuming ? nlohmann::json(nullptr) : to_json(outputs.quality);
 
   // 3. Frames. Each frame boundary is a restart point, so a checkpoint taken
   // there resumes bitwise identically. A first SIGINT or SIGTERM finishes
@@ -311,7 +329,7 @@ int run_scene(const RunOptions& options) {
   nlohmann::json per_frame = nlohmann::json::array();
   StageTimes stages_before = sim.stage_times();
   std::int64_t steps_before = sim.steps();
-  auto frame_record = [&](int k, double output_before) {
+  auto frame_record = [&](int k, double output_before, double quality_before) {
     const StageTimes& st = sim.stage_times();
     const SimulationTotals t = sim.totals();
     nlohmann::json r = {{"frame", k},
@@ -325,7 +343,9 @@ int run_scene(const RunOptions& options) {
                           {"remesh_check", st.remesh_check - stages_before.remesh_check},
                           {"remesh", st.remesh - stages_before.remesh},
                           {"safety_checks", st.safety - stages_before.safety},
-                          {"frames_output", outputs.seconds - output_before}}},
+                          {"frames_output", outputs.seconds - output_before},
+                          {"surface_quality", outputs.quality_seconds - quality_before}}},
+                        {"surface", to_json(outputs.quality)},
                         {"integrate_stages", step_stages(st.step, stages_before.step)},
                         {"remesh_stages", remesh_stages(st.remesh_stages, stages_before.remesh_stages)}};
     stages_before = st;
@@ -372,9 +392,9 @@ int run_scene(const RunOptions& options) {
       break;
     }
     ++frame;
-    const double output_before = outputs.seconds;
+    const double output_before = outputs.seconds, quality_before = outputs.quality_seconds;
     outputs.write_frame(frame, sim);
-    per_frame.push_back(frame_record(frame, output_before));
+    per_frame.push_back(frame_record(frame, output_before, quality_before));
     progress.update(frame, sim.time(), sim.steps(), sim.remeshes(), frame == last_frame);
   }
   const long long stepping_peak_bytes = peak_memory_bytes();  // before the final checkpoint
@@ -398,7 +418,7 @@ int run_scene(const RunOptions& options) {
   j["wall_seconds"] = seconds_since(wall_start);
   j["stages"] = {{"integrate", st.integrate},       {"remesh_check", st.remesh_check}, {"remesh", st.remesh},
                  {"safety_checks", st.safety},       {"frames_output", outputs.seconds},
-                 {"checkpoints", checkpoint_seconds}};
+                 {"surface_quality", outputs.quality_seconds}, {"checkpoints", checkpoint_seconds}};
   j["integrate_stages"] = step_stages(st.step, StepTimes{});
   j["remesh_stages"] = remesh_stages(st.remesh_stages, RemeshTimes{});
   j["steps"] = sim.steps();
@@ -421,6 +441,7 @@ int run_scene(const RunOptions& options) {
   j["peak_memory_bytes"] = peak_memory_bytes();
   j["setup_peak_memory_bytes"] = setup_peak_bytes;
   j["stepping_peak_memory_bytes"] = stepping_peak_bytes;
+  j["initial_surface"] = initial_surface;
   j["per_frame"] = per_frame;
   const std::string text = j.dump(2) + "\n";
   io::write_file_atomically(folder / "summary.json", [&](std::ostream& out) { out << text; });

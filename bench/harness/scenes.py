@@ -1,5 +1,7 @@
-"""Per-frame profile of each example scene: wall time split by stage, and
-element and surface-triangle counts over time (from goo run's summary.json)."""
+"""Per-frame profile of each example scene: wall time split by stage,
+element and surface-triangle counts, and the surface's quality (crossing
+triangle pairs, creased edges, enclosed volume) over time (from goo run's
+summary.json)."""
 import glob
 import os
 
@@ -8,7 +10,7 @@ from common import goo_run, log, plt, save_figure, table, write_csv, write_json
 # The finest split goo reports: the integrator's stages, the re-mesh's stages, and the rest.
 STEP = ["forces", "damping", "hessian", "linear_solve", "collisions", "surface", "other"]
 REMESH = ["upkeep", "lattice", "transfer", "masses", "conservation"]
-REST = ["remesh_check", "safety_checks", "frames_output"]
+REST = ["remesh_check", "safety_checks", "frames_output", "surface_quality"]
 
 
 def split(stages, step, remesh):
@@ -46,11 +48,19 @@ def run_section(ctx):
         row["remesh_percent"] = sum(row[f"remesh.{k}_percent"] for k in REMESH)
         # What no stage counts: reading the scene, the first meshes, writing the summary.
         row["setup_percent"] = 100.0 - sum(row[f"{k}_percent"] for k in parts)
+        surfaces = [s["initial_surface"]] + [r["surface"] for r in s["per_frame"]]
+        row["max_crossing_pairs"] = max(q["self_intersecting_pairs"] for q in surfaces)
+        row["max_creased_percent"] = max(100.0 * q["creased_edges"] / max(1, q["edges"]) for q in surfaces)
+        row["min_volume_ratio"] = min(q["volume"] for q in surfaces) / surfaces[0]["volume"]
         rows.append(row)
         for record in s["per_frame"]:
+            q = record["surface"]
             per_frame.append({"scene": name, "frame": record["frame"], "time": record["time"],
                               "steps": record["steps"], "elements": record["elements"],
                               "surface_triangles": record["surface_triangles"],
+                              "crossing_pairs": q["self_intersecting_pairs"],
+                              "creased_percent": 100.0 * q["creased_edges"] / max(1, q["edges"]),
+                              "volume_ratio": q["volume"] / surfaces[0]["volume"],
                               **{f"{k}_seconds": v for k, v in split(record["stages"], record["integrate_stages"],
                                                                      record["remesh_stages"]).items()}})
     write_json(ctx.path("scenes.json"), {"scenes": rows, "per_frame": per_frame})
@@ -65,7 +75,9 @@ def run_section(ctx):
         ("remesh_check_percent", "trigger %", "{:.1f}"), ("remesh_percent", "re-mesh %", "{:.1f}"),
         ("frames_output_percent", "output %", "{:.1f}"), ("checkpoints_percent", "checkpoints %", "{:.1f}"),
         ("setup_percent", "setup %", "{:.0f}"), ("elements", "tets (end)", "{}"),
-        ("surface_triangles", "triangles (end)", "{}"), ("peak_memory_mb", "peak MB", "{:.0f}")],
+        ("surface_triangles", "triangles (end)", "{}"), ("peak_memory_mb", "peak MB", "{:.0f}"),
+        ("max_crossing_pairs", "crossing pairs (max)", "{}"), ("max_creased_percent", "creased % (max)", "{:.2f}"),
+        ("min_volume_ratio", "volume (lowest)", "{:.3f}")],
         "Example scenes: where the wall time goes (% of wall)")
 
 
@@ -73,7 +85,7 @@ def plot(ctx, rows, per_frame):
     names = [r["scene"] for r in rows if "error" not in r]
     if not names:
         return
-    fig, axes = plt.subplots(len(names), 2, figsize=(11, 2.2 * len(names)), squeeze=False)
+    fig, axes = plt.subplots(len(names), 3, figsize=(15, 2.2 * len(names)), squeeze=False)
     for i, name in enumerate(names):
         records = [p for p in per_frame if p["scene"] == name]
         x = [p["frame"] for p in records]
@@ -87,8 +99,15 @@ def plot(ctx, rows, per_frame):
         axes[i][1].plot(x, [p["elements"] for p in records], label="tets")
         axes[i][1].plot(x, [p["surface_triangles"] for p in records], label="surface triangles")
         axes[i][1].set_title(f"{name}: mesh sizes", fontsize=9)
+        axes[i][2].plot(x, [p["crossing_pairs"] for p in records], label="crossing triangle pairs")
+        axes[i][2].plot(x, [p["creased_percent"] for p in records], label="edges creased past 90° (%)")
+        twin = axes[i][2].twinx()
+        twin.plot(x, [p["volume_ratio"] for p in records], "k--", label="volume / frame 0")
+        twin.set_ylabel("volume ratio", fontsize=7)
+        axes[i][2].set_title(f"{name}: surface quality", fontsize=9)
     axes[0][0].legend(fontsize=6, ncol=3)
     axes[0][1].legend(fontsize=7)
-    axes[-1][0].set_xlabel("frame")
-    axes[-1][1].set_xlabel("frame")
+    axes[0][2].legend(fontsize=7)
+    for k in range(3):
+        axes[-1][k].set_xlabel("frame")
     save_figure(fig, ctx.path("scenes.png"))

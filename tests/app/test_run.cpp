@@ -98,10 +98,20 @@ TEST(GooRun, FramesAndSummaryOfAFreelyMovingCubeAreExact) {
   for (std::size_t k = 0; k < per_frame.size(); ++k) {
     EXPECT_EQ(per_frame[k]["frame"], k + 1);
     EXPECT_GT(per_frame[k]["elements"].get<long>(), 0);
+    // The surface of every frame: the translated box, clean and whole.
+    const auto& surface = per_frame[k]["surface"];
+    EXPECT_EQ(surface["triangles"], 108);
+    EXPECT_EQ(surface["edges"], 162);
+    EXPECT_EQ(surface["self_intersecting_pairs"], 0);
+    EXPECT_EQ(surface["creased_edges"], 0);  // the box's edges are at 90°, not past it
+    EXPECT_NEAR(surface["volume"].get<double>(), 1e-3, 1e-16);
+    EXPECT_NEAR(surface["area"].get<double>(), 0.06, 1e-15);
     steps += per_frame[k]["steps"].get<long>();
     integrate += per_frame[k]["stages"]["integrate"].get<double>();
   }
   EXPECT_EQ(steps, summary["steps"].get<long>());
+  EXPECT_EQ(summary["initial_surface"]["self_intersecting_pairs"], 0);
+  EXPECT_NEAR(summary["initial_surface"]["volume"].get<double>(), 1e-3, 1e-17);
   // The stages of a step are laps inside it: none negative, and together no
   // more than the step's own time, measured around it.
   double stage_sum = 0.0;

@@ -1,0 +1,317 @@
+#include "meshing/surface_intersections.h"
+
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <utility>
+
+#include "core/parallel.h"
+#include "core/surface_geometry.h"
+#include "meshing/exact_predicates.h"
+
+namespace goo {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+
+/// A plane projection that keeps a triangle's plane one-to-one: the axis
+/// dropped is one along which the exact normal has a non-zero component.
+/// orient() is then the exact orientation of the projected points.
+struct Projection {
+  int drop = -1;  // -1: the triangle has no area
+  [[nodiscard]] int orient(const Vec3& a, const Vec3& b, const Vec3& c) const {
+    switch (drop) {
+      case 0: return exact::orient_yz(a, b, c);
+      case 1: return exact::orient_zx(a, b, c);
+      default: return exact::orient_xy(a, b, c);
+    }
+  }
+  /// p, known to lie on the line ab (in projection), lies between a and b.
+  [[nodiscard]] bool between(const Vec3& a, const Vec3& b, const Vec3& p) const {
+    for (int k = 0; k < 3; ++k) {
+      if (k == drop) continue;
+      if (p[k] < std::min(a[k], b[k]) || p[k] > std::max(a[k], b[k])) return false;
+    }
+    return true;
+  }
+};
+
+Projection projection_of(const Vec3& a, const Vec3& b, const Vec3& c) {
+  if (exact::orient_yz(a, b, c) != 0) return {0};
+  if (exact::orient_zx(a, b, c) != 0) return {1};
+  if (exact::orient_xy(a, b, c) != 0) return {2};
+  return {-1};
+}
+
+bool mixed(int s1, int s2, int s3) {
+  return (s1 > 0 || s2 > 0 || s3 > 0) && (s1 < 0 || s2 < 0 || s3 < 0);
+}
+
+// --- In one plane, seen through a projection ------------------------------
+
+/// The closed segments pq and rs (coplanar) meet.
+bool segments_meet_2d(const Projection& pr, const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& s) {
+  const int d1 = pr.orient(r, s, p), d2 = pr.orient(r, s, q);
+  const int d3 = pr.orient(p, q, r), d4 = pr.orient(p, q, s);
+  if (d1 * d2 < 0 && d3 * d4 < 0) return true;
+  return (d1 == 0 && pr.between(r, s, p)) || (d2 == 0 && pr.between(r, s, q)) || (d3 == 0 && pr.between(p, q, r)) ||
+         (d4 == 0 && pr.between(p, q, s));
+}
+
+/// p (coplanar) lies in the closed triangle (u, v, w) of non-zero area.
+bool point_in_triangle_2d(const Projection& pr, const Vec3& p, const Vec3& u, const Vec3& v, const Vec3& w) {
+  return !mixed(pr.orient(u, v, p), pr.orient(v, w, p), pr.orient(w, u, p));
+}
+
+bool segment_meets_triangle_2d(const Projection& pr, const Vec3& a, const Vec3& b, const Vec3& u, const Vec3& v,
+                               const Vec3& w) {
+  return point_in_triangle_2d(pr, a, u, v, w) || point_in_triangle_2d(pr, b, u, v, w) ||
+         segments_meet_2d(pr, a, b, u, v) || segments_meet_2d(pr, a, b, v, w) || segments_meet_2d(pr, a, b, w, u);
+}
+
+bool triangles_meet_2d(const Projection& pr, const std::array<const Vec3*, 3>& p,
+                       const std::array<const Vec3*, 3>& q) {
+  for (std::size_t i = 0; i < 3; ++i) {
+    if (segment_meets_triangle_2d(pr, *p[i], *p[(i + 1) % 3], *q[0], *q[1], *q[2])) return true;
+  }
+  // No edge of p meets q, so q is inside p or the two are apart.
+  return point_in_triangle_2d(pr, *q[0], *p[0], *p[1], *p[2]);
+}
+
+// --- In space ---------------------------------------------------------------
+
+/// The closed segment ab against the closed triangle (u, v, w) of non-zero
+/// area, given the exact sides sa, sb of a and b relative to its plane.
+bool segment_meets_triangle_3d(const Vec3& a, const Vec3& b, int sa, int sb, const Vec3& u, const Vec3& v,
+                               const Vec3& w) {
+  if (sa * sb > 0) return false;  // both strictly on one side
+  if (sa == 0 && sb == 0) return segment_meets_triangle_2d(projection_of(u, v, w), a, b, u, v, w);
+  // The segment meets the plane in one point; the line ab passes through the
+  // closed triangle iff it passes no edge of it on opposite sides.
+  return !mixed(exact::orient_3d(a, b, u, v), exact::orient_3d(a, b, v, w), exact::orient_3d(a, b, w, u));
+}
+
+bool nondegenerate(const Vec3& a, const Vec3& b, const Vec3& c) {
+  return projection_of(a, b, c).drop >= 0;
+}
+
+bool triangles_meet(const std::array<const Vec3*, 3>& p, const std::array<const Vec3*, 3>& q) {
+  std::array<int, 3> sq{}, sp{};
+  for (std::size_t i = 0; i < 3; ++i) sq[i] = exact::orient_3d(*p[0], *p[1], *p[2], *q[i]);
+  if ((sq[0] > 0 && sq[1] > 0 && sq[2] > 0) || (sq[0] < 0 && sq[1] < 0 && sq[2] < 0)) return false;
+  for (std::size_t i = 0; i < 3; ++i) sp[i] = exact::orient_3d(*q[0], *q[1], *q[2], *p[i]);
+  if ((sp[0] > 0 && sp[1] > 0 && sp[2] > 0) || (sp[0] < 0 && sp[1] < 0 && sp[2] < 0)) return false;
+  if (sq[0] == 0 && sq[1] == 0 && sq[2] == 0) return triangles_meet_2d(projection_of(*p[0], *p[1], *p[2]), p, q);
+  // Not coplanar: the common part lies on the planes' line, and its ends lie
+  // on an edge of one triangle inside the other.
+  for (std::size_t i = 0; i < 3; ++i) {
+    const std::size_t j = (i + 1) % 3;
+    if (segment_meets_triangle_3d(*p[i], *p[j], sp[i], sp[j], *q[0], *q[1], *q[2])) return true;
+    if (segment_meets_triangle_3d(*q[i], *q[j], sq[i], sq[j], *p[0], *p[1], *p[2])) return true;
+  }
+  return false;
+}
+
+std::array<const Vec3*, 3> pointers(const std::array<Vec3, 3>& p) {
+  return {&p[0], &p[1], &p[2]};
+}
+
+std::array<Vec3, 3> corner_points(const TriangleMesh& mesh, Index t) {
+  return {mesh.vertices.row(mesh.triangles(t, 0)).transpose(), mesh.vertices.row(mesh.triangles(t, 1)).transpose(),
+          mesh.vertices.row(mesh.triangles(t, 2)).transpose()};
+}
+
+// --- The broad phase ----------------------------------------------------------
+
+struct Boxes {
+  std::vector<Eigen::AlignedBox3d> box;  // per triangle
+  Vec3 origin = Vec3::Zero();
+  double cell = 1.0;
+  int bits = 21;
+
+  [[nodiscard]] std::array<std::int64_t, 3> cell_of(const Vec3& p) const {
+    std::array<std::int64_t, 3> c{};
+    for (int k = 0; k < 3; ++k) c[at(k)] = static_cast<std::int64_t>(std::floor((p[k] - origin[k]) / cell));
+    return c;
+  }
+  [[nodiscard]] std::uint64_t key(const std::array<std::int64_t, 3>& c) const {
+    return (static_cast<std::uint64_t>(c[0]) << (2 * bits)) | (static_cast<std::uint64_t>(c[1]) << bits) |
+           static_cast<std::uint64_t>(c[2]);
+  }
+};
+
+/// Cell size: the mean largest box extent, grown until the grid has at most
+/// 2²¹ cells an axis and the triangles fill at most 16 cells each on average.
+Boxes make_boxes(const TriangleMesh& mesh) {
+  Boxes b;
+  const Index n = mesh.num_triangles();
+  b.box.resize(at(n));
+  double extent = 0.0;
+  Eigen::AlignedBox3d all;
+  for (Index t = 0; t < n; ++t) {
+    Eigen::AlignedBox3d& box = b.box[at(t)];
+    for (int k = 0; k < 3; ++k) box.extend(mesh.vertices.row(mesh.triangles(t, k)).transpose());
+    extent += box.sizes().maxCoeff();
+    all.extend(box);
+  }
+  b.origin = all.min();
+  const double span = all.sizes().maxCoeff();
+  b.cell = std::max({extent / std::max<Index>(n, 1), span / double(1 << 20), 1e-300});
+  while (true) {
+    double entries = 0.0;
+    for (const auto& box : b.box) {
+      const auto lo = b.cell_of(box.min()), hi = b.cell_of(box.max());
+      entries += double(hi[0] - lo[0] + 1) * double(hi[1] - lo[1] + 1) * double(hi[2] - lo[2] + 1);
+    }
+    if (entries <= 16.0 * double(std::max<Index>(n, 1))) break;
+    b.cell *= 2.0;
+  }
+  return b;
+}
+
+bool boxes_overlap(const Eigen::AlignedBox3d& a, const Eigen::AlignedBox3d& b) {
+  return (a.min().array() <= b.max().array()).all() && (b.min().array() <= a.max().array()).all();
+}
+
+}  // namespace
+
+bool segment_meets_triangle(const Vec3& a, const Vec3& b, const Vec3& u, const Vec3& v, const Vec3& w) {
+  if (!nondegenerate(u, v, w)) return false;
+  return segment_meets_triangle_3d(a, b, exact::orient_3d(u, v, w, a), exact::orient_3d(u, v, w, b), u, v, w);
+}
+
+bool triangles_intersect(const Vec3& a0, const Vec3& a1, const Vec3& a2, const Vec3& b0, const Vec3& b1,
+                         const Vec3& b2) {
+  if (!nondegenerate(a0, a1, a2) || !nondegenerate(b0, b1, b2)) return false;
+  return triangles_meet({&a0, &a1, &a2}, {&b0, &b1, &b2});
+}
+
+bool triangles_intersect(const TriangleMesh& mesh, Index s, Index t) {
+  const std::array<Vec3, 3> p = corner_points(mesh, s), q = corner_points(mesh, t);
+  if (!nondegenerate(p[0], p[1], p[2]) || !nondegenerate(q[0], q[1], q[2])) return false;
+  int shared = 0, is = -1, js = -1;  // the number of shared ids, and the last shared corner in s and t
+  int in_s[3] = {-1, -1, -1};        // for each corner of s, the matching corner of t
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      if (mesh.triangles(s, i) == mesh.triangles(t, j)) {
+        ++shared;
+        is = i;
+        js = j;
+        in_s[i] = j;
+      }
+    }
+  }
+  if (shared == 0) return triangles_meet(pointers(p), pointers(q));
+  if (shared >= 3) return true;
+  if (shared == 1) {
+    // The edge opposite the shared vertex in either triangle meets the other.
+    const Vec3 &p1 = p[at((is + 1) % 3)], &p2 = p[at((is + 2) % 3)];
+    const Vec3 &q1 = q[at((js + 1) % 3)], &q2 = q[at((js + 2) % 3)];
+    return segment_meets_triangle_3d(q1, q2, exact::orient_3d(p[0], p[1], p[2], q1),
+                                     exact::orient_3d(p[0], p[1], p[2], q2), p[0], p[1], p[2]) ||
+           segment_meets_triangle_3d(p1, p2, exact::orient_3d(q[0], q[1], q[2], p1),
+                                     exact::orient_3d(q[0], q[1], q[2], p2), q[0], q[1], q[2]);
+  }
+  // A shared edge: folded flat onto each other when the two opposite corners
+  // lie in one plane with it, on the same side.
+  int r = 0;
+  while (in_s[r] >= 0) ++r;  // the corner of s off the shared edge
+  int o = 0;
+  while (o == in_s[(r + 1) % 3] || o == in_s[(r + 2) % 3]) ++o;  // the corner of t off it
+  const Vec3 &u = p[at((r + 1) % 3)], &v = p[at((r + 2) % 3)], &pr = p[at(r)], &qo = q[at(o)];
+  if (exact::orient_3d(u, v, pr, qo) != 0) return false;
+  const Projection proj = projection_of(u, v, pr);
+  return proj.orient(u, v, pr) * proj.orient(u, v, qo) > 0;
+}
+
+std::vector<std::array<Index, 2>> self_intersecting_pairs(const TriangleMesh& mesh) {
+  const Index n = mesh.num_triangles();
+  if (n < 2) return {};
+  const Boxes b = make_boxes(mesh);
+
+  // (cell, triangle) for every cell a triangle's box covers, sorted by cell.
+  std::vector<std::pair<std::uint64_t, Index>> entries;
+  entries.reserve(at(n) * 4);
+  for (Index t = 0; t < n; ++t) {
+    const auto lo = b.cell_of(b.box[at(t)].min()), hi = b.cell_of(b.box[at(t)].max());
+    for (std::int64_t i = lo[0]; i <= hi[0]; ++i)
+      for (std::int64_t j = lo[1]; j <= hi[1]; ++j)
+        for (std::int64_t k = lo[2]; k <= hi[2]; ++k) entries.emplace_back(b.key({i, j, k}), t);
+  }
+  tbb::parallel_sort(entries.begin(), entries.end());  // the pairs are distinct: one order for any thread count
+  std::vector<std::size_t> run_start;
+  for (std::size_t e = 0; e < entries.size(); ++e) {
+    if (e == 0 || entries[e].first != entries[e - 1].first) run_start.push_back(e);
+  }
+  run_start.push_back(entries.size());
+
+  // Each pair is tested only in the cell of the lower corner of the two
+  // boxes' overlap, which both triangles cover.
+  const std::size_t runs = run_start.size() - 1, grain = 64;
+  std::vector<std::vector<std::array<Index, 2>>> found((runs + grain - 1) / grain);
+  tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t chunk) {
+    auto& out = found[chunk];
+    for (std::size_t r = chunk * grain; r < std::min(runs, (chunk + 1) * grain); ++r) {
+      const std::uint64_t cell = entries[run_start[r]].first;
+      for (std::size_t x = run_start[r]; x < run_start[r + 1]; ++x) {
+        const Index s = entries[x].second;
+        for (std::size_t y = x + 1; y < run_start[r + 1]; ++y) {
+          const Index t = entries[y].second;
+          const auto &bs = b.box[at(s)], &bt = b.box[at(t)];
+          if (!boxes_overlap(bs, bt)) continue;
+          if (b.key(b.cell_of(bs.min().cwiseMax(bt.min()))) != cell) continue;
+          if (triangles_intersect(mesh, s, t)) out.push_back({std::min(s, t), std::max(s, t)});
+        }
+      }
+    }
+  });
+  std::vector<std::array<Index, 2>> pairs;
+  for (const auto& f : found) pairs.insert(pairs.end(), f.begin(), f.end());
+  std::sort(pairs.begin(), pairs.end());
+  return pairs;
+}
+
+SurfaceQuality measure_surface_quality(const TriangleMesh& mesh) {
+  SurfaceQuality q;
+  q.triangles = mesh.num_triangles();
+  const SurfaceIntegrals integrals = surface_integrals(mesh);
+  q.area = integrals.area;
+  q.volume = integrals.volume;
+  q.self_intersecting_pairs = static_cast<Index>(self_intersecting_pairs(mesh).size());
+
+  // Edges: (key, triangle) sorted; an edge with exactly two triangles is
+  // creased when their normals point more than 90° apart.
+  std::vector<Vec3> normal(at(q.triangles));
+  std::vector<std::pair<std::uint64_t, Index>> half_edges;
+  half_edges.reserve(at(q.triangles) * 3);
+  for (Index t = 0; t < q.triangles; ++t) {
+    const std::array<Vec3, 3> p = corner_points(mesh, t);
+    normal[at(t)] = (p[1] - p[0]).cross(p[2] - p[0]);
+    if (!nondegenerate(p[0], p[1], p[2])) ++q.degenerate_triangles;
+    for (int k = 0; k < 3; ++k) {
+      const auto a = static_cast<std::uint32_t>(mesh.triangles(t, k));
+      const auto c = static_cast<std::uint32_t>(mesh.triangles(t, (k + 1) % 3));
+      half_edges.emplace_back((std::uint64_t{std::min(a, c)} << 32) | std::max(a, c), t);
+    }
+  }
+  std::sort(half_edges.begin(), half_edges.end());
+  for (std::size_t e = 0; e < half_edges.size();) {
+    std::size_t f = e;
+    while (f < half_edges.size() && half_edges[f].first == half_edges[e].first) ++f;
+    ++q.edges;
+    if (f - e == 2) {
+      // Past 90° beyond round-off: two normals at exactly 90° (a box's
+      // edges) give a computed dot product of a few ε |n1| |n2|.
+      const Vec3 &n1 = normal[at(half_edges[e].second)], &n2 = normal[at(half_edges[e + 1].second)];
+      if (n1.dot(n2) < -8.0 * std::numeric_limits<double>::epsilon() * n1.norm() * n2.norm()) ++q.creased_edges;
+    }
+    e = f;
+  }
+  return q;
+}
+
+}  // namespace goo

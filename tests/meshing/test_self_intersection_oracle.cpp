@@ -1,0 +1,94 @@
+// CGAL's Polygon_mesh_processing::self_intersections as the oracle of goo's
+// self-intersection search: the same pairs on constructed and crumpled
+// surfaces, including coplanar foldings.
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
+#include <CGAL/Surface_mesh.h>
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "core/primitives.h"
+#include "meshing/surface_intersections.h"
+
+namespace goo {
+namespace {
+
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Mesh = CGAL::Surface_mesh<Kernel::Point_3>;
+namespace PMP = CGAL::Polygon_mesh_processing;
+
+std::vector<std::array<Index, 2>> cgal_pairs(const TriangleMesh& m) {
+  Mesh mesh;
+  std::vector<Mesh::Vertex_index> v;
+  for (Index i = 0; i < m.num_vertices(); ++i)
+    v.push_back(mesh.add_vertex(Kernel::Point_3(m.vertices(i, 0), m.vertices(i, 1), m.vertices(i, 2))));
+  for (Index t = 0; t < m.num_triangles(); ++t) {
+    const auto f = mesh.add_face(v[static_cast<std::size_t>(m.triangles(t, 0))],
+                                 v[static_cast<std::size_t>(m.triangles(t, 1))],
+                                 v[static_cast<std::size_t>(m.triangles(t, 2))]);
+    EXPECT_EQ(static_cast<Index>(f.idx()), t);
+  }
+  std::vector<std::pair<Mesh::Face_index, Mesh::Face_index>> found;
+  PMP::self_intersections(mesh, std::back_inserter(found));
+  std::vector<std::array<Index, 2>> pairs;
+  for (const auto& [f, g] : found) {
+    const auto a = static_cast<Index>(f.idx()), b = static_cast<Index>(g.idx());
+    pairs.push_back({std::min(a, b), std::max(a, b)});
+  }
+  std::sort(pairs.begin(), pairs.end());
+  return pairs;
+}
+
+void expect_same_as_cgal(const TriangleMesh& m, std::size_t at_least) {
+  ASSERT_EQ(measure_surface_quality(m).degenerate_triangles, 0);
+  const auto ours = self_intersecting_pairs(m), theirs = cgal_pairs(m);
+  EXPECT_GE(ours.size(), at_least);
+  ::testing::Test::RecordProperty("pairs", static_cast<int>(ours.size()));
+  EXPECT_EQ(ours, theirs);
+}
+
+TEST(SelfIntersectionOracle, CrumpledSpheres) {
+  // Noise of a third to twice the edge length: from a few folds to a tangle.
+  for (const double amplitude : {0.02, 0.05, 0.12}) {
+    TriangleMesh s = make_sphere(1.0, 40);
+    std::mt19937 rng(11);
+    std::normal_distribution<double> noise(0.0, amplitude);
+    for (Index v = 0; v < s.num_vertices(); ++v)
+      for (int k = 0; k < 3; ++k) s.vertices(v, k) += noise(rng);
+    SCOPED_TRACE(amplitude);
+    expect_same_as_cgal(s, 1);
+  }
+}
+
+TEST(SelfIntersectionOracle, SquashedTorusFoldsOntoItself) {
+  // A torus pressed flat (z scaled by 1e-3, then exactly to 0 on a band):
+  // many coplanar neighbours, folded and unfolded.
+  TriangleMesh t = make_torus(1.0, 0.4, 48, 16);
+  for (Index v = 0; v < t.num_vertices(); ++v) {
+    t.vertices(v, 2) *= 1e-3;
+    if (t.vertices(v, 0) > 0.5) t.vertices(v, 2) = 0.0;
+  }
+  expect_same_as_cgal(t, 1);
+}
+
+TEST(SelfIntersectionOracle, BoxesMeetingOnOneGrid) {
+  // Two boxes on one grid, the second shifted by exactly half a box so
+  // vertices land on faces and edges of the other: the touching cases.
+  TriangleMesh a = make_box({1, 1, 1}, 4), b = a;
+  b.vertices.array() += 0.5;
+  TriangleMesh both;
+  both.vertices.resize(a.num_vertices() * 2, 3);
+  both.vertices << a.vertices, b.vertices;
+  both.triangles.resize(a.num_triangles() * 2, 3);
+  both.triangles << a.triangles, b.triangles.array() + a.num_vertices();
+  expect_same_as_cgal(both, 1);
+  // And touching face to face: shifted by exactly one box along x.
+  b = a;
+  b.vertices.col(0).array() += 1.0;
+  both.vertices << a.vertices, b.vertices;
+  expect_same_as_cgal(both, 1);
+}
+
+}  // namespace
+}  // namespace goo
