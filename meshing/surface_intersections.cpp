@@ -284,13 +284,20 @@ SurfaceQuality measure_surface_quality(const TriangleMesh& mesh) {
   q.self_intersecting_pairs = static_cast<Index>(self_intersecting_pairs(mesh).size());
 
   // Edges: (key, triangle) sorted; an edge with exactly two triangles is
-  // creased when their normals point more than 90° apart.
+  // creased when their normals point more than 90° apart by more than the
+  // coordinates can resolve. A frame's coordinates carry an absolute error
+  // of about δ = 8ε max|x| (they come through the embedding, Σ b_i x_i); a
+  // triangle's normal n = e1 × e2 then turns by up to 2δ(|e1| + |e2|)/|n|,
+  // so a box's 90° edges are not counted, wherever the box stands.
+  const double delta = 8.0 * std::numeric_limits<double>::epsilon() * mesh.vertices.cwiseAbs().maxCoeff();
   std::vector<Vec3> normal(at(q.triangles));
+  std::vector<double> turn(at(q.triangles));
   std::vector<std::pair<std::uint64_t, Index>> half_edges;
   half_edges.reserve(at(q.triangles) * 3);
   for (Index t = 0; t < q.triangles; ++t) {
     const std::array<Vec3, 3> p = corner_points(mesh, t);
     normal[at(t)] = (p[1] - p[0]).cross(p[2] - p[0]);
+    turn[at(t)] = 2.0 * delta * ((p[1] - p[0]).norm() + (p[2] - p[0]).norm()) / normal[at(t)].norm();
     if (!nondegenerate(p[0], p[1], p[2])) ++q.degenerate_triangles;
     for (int k = 0; k < 3; ++k) {
       const auto a = static_cast<std::uint32_t>(mesh.triangles(t, k));
@@ -304,10 +311,11 @@ SurfaceQuality measure_surface_quality(const TriangleMesh& mesh) {
     while (f < half_edges.size() && half_edges[f].first == half_edges[e].first) ++f;
     ++q.edges;
     if (f - e == 2) {
-      // Past 90° beyond round-off: two normals at exactly 90° (a box's
-      // edges) give a computed dot product of a few ε |n1| |n2|.
-      const Vec3 &n1 = normal[at(half_edges[e].second)], &n2 = normal[at(half_edges[e + 1].second)];
-      if (n1.dot(n2) < -8.0 * std::numeric_limits<double>::epsilon() * n1.norm() * n2.norm()) ++q.creased_edges;
+      const Index s = half_edges[e].second, t = half_edges[e + 1].second;
+      const Vec3 &n1 = normal[at(s)], &n2 = normal[at(t)];
+      // cos θ < −sin(tolerance): past 90° beyond what round-off can turn (a
+      // degenerate triangle's NaN tolerance counts nothing).
+      if (n1.dot(n2) < -(turn[at(s)] + turn[at(t)]) * n1.norm() * n2.norm()) ++q.creased_edges;
     }
     e = f;
   }

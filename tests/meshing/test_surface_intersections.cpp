@@ -127,6 +127,32 @@ TEST(SurfaceQuality, ClosedPrimitivesAreClean) {
   }
 }
 
+TEST(SurfaceQuality, CreasesArePastNinetyDegrees) {
+  // A regular tetrahedron: dihedral angles of 70.5°, normals 109.5° apart,
+  // all six edges creased. A regular octahedron: normals 70.5° apart, none.
+  TriangleMesh tet;
+  tet.vertices.resize(4, 3);
+  tet.vertices << 1, 1, 1, 1, -1, -1, -1, 1, -1, -1, -1, 1;
+  tet.triangles.resize(4, 3);
+  tet.triangles << 0, 1, 2, 0, 3, 1, 0, 2, 3, 1, 3, 2;
+  EXPECT_EQ(measure_surface_quality(tet).creased_edges, 6);
+  TriangleMesh octa;
+  octa.vertices.resize(6, 3);
+  octa.vertices << 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1;
+  octa.triangles.resize(8, 3);
+  octa.triangles << 0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5;
+  EXPECT_EQ(measure_surface_quality(octa).creased_edges, 0);
+  // A box's edges are at exactly 90°: not creased, however the box is
+  // turned and wherever it stands (its coordinates then carry round-off).
+  TriangleMesh box = make_box({0.2, 0.2, 0.2}, 8);
+  const Eigen::Matrix3d r = (Eigen::AngleAxisd(0.35, Eigen::Vector3d::UnitX()) *
+                             Eigen::AngleAxisd(0.52, Eigen::Vector3d::UnitY()))
+                                .toRotationMatrix();
+  for (Index v = 0; v < box.num_vertices(); ++v)
+    box.vertices.row(v) = (r * box.vertices.row(v).transpose() + Eigen::Vector3d(100.3, -7.1, 0.3)).transpose();
+  EXPECT_EQ(measure_surface_quality(box).creased_edges, 0);
+}
+
 TEST(SurfaceQuality, TwoInterpenetratingSpheres) {
   // Two spheres of radius 1, centres 1.5 apart: the pairs crossing are those
   // near the circle where the spheres meet, none within one sphere.
