@@ -77,7 +77,8 @@ double seconds_since(Clock::time_point start) { return std::chrono::duration<dou
 nlohmann::json step_stages(const StepTimes& a, const StepTimes& b) {
   return {{"forces", a.forces - b.forces},           {"damping", a.damping - b.damping},
           {"hessian", a.hessian - b.hessian},        {"linear_solve", a.linear_solve - b.linear_solve},
-          {"collisions", a.collisions - b.collisions}, {"surface", a.surface - b.surface},
+          {"collisions", a.collisions - b.collisions}, {"self_collisions", a.self_collisions - b.self_collisions},
+          {"surface", a.surface - b.surface},
           {"other", a.other - b.other}};
 }
 
@@ -154,6 +155,17 @@ class Progress {
   Clock::time_point start_ = Clock::now();
   double shown_ = -1e9;
 };
+
+nlohmann::json to_json(const SelfCollisionStats& a, const SelfCollisionStats& b) {
+  return {{"candidates", a.candidates - b.candidates},
+          {"repulsions", a.repulsions - b.repulsions},
+          {"impacts", a.impacts - b.impacts},
+          {"rounds", a.rounds - b.rounds},
+          {"zone_rounds", a.zone_rounds - b.zone_rounds},
+          {"zone_nodes", a.zone_nodes - b.zone_nodes},
+          {"touching_at_start", a.touching_at_start - b.touching_at_start},
+          {"broad_phases", a.list_builds - b.list_builds}};
+}
 
 nlohmann::json to_json(const SurfaceQuality& q) {
   return {{"triangles", q.triangles},
@@ -329,6 +341,7 @@ int run_scene(const RunOptions& options) {
   nlohmann::json per_frame = nlohmann::json::array();
   StageTimes stages_before = sim.stage_times();
   std::int64_t steps_before = sim.steps();
+  SelfCollisionStats self_before = sim.self_collision_totals();
   auto frame_record = [&](int k, double output_before, double quality_before) {
     const StageTimes& st = sim.stage_times();
     const SimulationTotals t = sim.totals();
@@ -346,9 +359,11 @@ int run_scene(const RunOptions& options) {
                           {"frames_output", outputs.seconds - output_before},
                           {"surface_quality", outputs.quality_seconds - quality_before}}},
                         {"surface", to_json(outputs.quality)},
+                        {"self_collisions", to_json(sim.self_collision_totals(), self_before)},
                         {"integrate_stages", step_stages(st.step, stages_before.step)},
                         {"remesh_stages", remesh_stages(st.remesh_stages, stages_before.remesh_stages)}};
     stages_before = st;
+    self_before = sim.self_collision_totals();
     steps_before = sim.steps();
     return r;
   };
@@ -442,6 +457,7 @@ int run_scene(const RunOptions& options) {
   j["setup_peak_memory_bytes"] = setup_peak_bytes;
   j["stepping_peak_memory_bytes"] = stepping_peak_bytes;
   j["initial_surface"] = initial_surface;
+  j["self_collisions"] = to_json(sim.self_collision_totals(), SelfCollisionStats{});
   j["per_frame"] = per_frame;
   const std::string text = j.dump(2) + "\n";
   io::write_file_atomically(folder / "summary.json", [&](std::ostream& out) { out << text; });

@@ -7,6 +7,7 @@
 #include <optional>
 #include <vector>
 
+#include "core/contact/self_collisions.h"
 #include "core/obstacles.h"
 #include "core/types.h"
 
@@ -41,6 +42,8 @@ struct Constraints {
   std::optional<HalfSpace> ground;
   /// Obstacles the embedded surface collides with (bodies with a surface).
   std::vector<Obstacle> obstacles;
+  /// Self-collisions of the embedded surface, when on.
+  std::optional<SelfCollisionParameters> self_collisions;
 };
 
 }  // namespace goo

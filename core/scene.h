@@ -34,6 +34,7 @@ struct SceneObject {
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();          ///< m/s
   Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  ///< rad/s, about the centroid of the geometry
   std::vector<PinnedRegion> pinned;
+  SelfCollisionSettings self_collisions;
 };
 
 struct RemeshSettings {

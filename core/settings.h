@@ -55,6 +55,21 @@ struct BackwardEulerSettings {
   double smoothing = 0.0;
 };
 
+/// Self-collisions of a body's embedded surface (docs/embedded-surface.md,
+/// "Self-collisions"): a scene's per-object `self_collisions`.
+struct SelfCollisionSettings {
+  bool enabled = true;
+  /// Pairs of surface primitives are kept at least this far apart, m; 0:
+  /// kSelfCollisionThicknessFraction × the lattice spacing (a tetrahedral
+  /// mesh: × its mean rest edge length).
+  double thickness = 0.0;
+  double friction = 0.0;  ///< Coulomb coefficient between sheets of the surface
+};
+
+/// The default thickness, as a fraction of the element size: far below
+/// anything visible, far above the round-off of the positions.
+inline constexpr double kSelfCollisionThicknessFraction = 1e-3;
+
 struct RemeshThresholds {
   double condition_growth = 3.0;  ///< κ(Ds) / κ(Dm) that triggers
   double min_barycentric = -0.2;  ///< a surface vertex's coordinate that triggers

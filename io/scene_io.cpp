@@ -351,6 +351,22 @@ SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& 
   }
   optional(n, "velocity", o.velocity, [](const Node& v) { return v.vec3(); });
   optional(n, "angular_velocity", o.angular_velocity, [](const Node& v) { return v.vec3(); });
+  if (auto c = n.get("self_collisions")) {
+    // true, false, or {"enabled", "thickness", "friction"}
+    if (c->value().is_boolean()) {
+      o.self_collisions.enabled = c->boolean();
+    } else {
+      SelfCollisionSettings& sc = o.self_collisions;
+      optional(*c, "enabled", sc.enabled, [](const Node& v) { return v.boolean(); });
+      optional(*c, "thickness", sc.thickness, [](const Node& v) { return v.positive(); });
+      optional(*c, "friction", sc.friction, [](const Node& v) { return v.non_negative(); });
+      const Eigen::Vector3d extent = x.colwise().maxCoeff() - x.colwise().minCoeff();
+      if (sc.thickness >= 0.1 * extent.maxCoeff())
+        c->at("thickness").fail(fmt::format("must be below a tenth of the object's size ({:.4g} m across), got {}",
+                                            extent.maxCoeff(), sc.thickness));
+      c->finish();
+    }
+  }
   if (auto p = n.get("pinned")) {
     for (std::size_t i = 0; i < p->size(); ++i) {
       Node region = p->element(i);

@@ -1,7 +1,7 @@
 #include "meshing/surface_intersections.h"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cmath>
@@ -9,6 +9,7 @@
 #include <limits>
 #include <utility>
 
+#include "core/contact/box_pairs.h"
 #include "core/parallel.h"
 #include "core/surface_geometry.h"
 #include "meshing/exact_predicates.h"
@@ -125,58 +126,6 @@ std::array<Vec3, 3> corner_points(const TriangleMesh& mesh, Index t) {
           mesh.vertices.row(mesh.triangles(t, 2)).transpose()};
 }
 
-// --- The broad phase ----------------------------------------------------------
-
-struct Boxes {
-  std::vector<Eigen::AlignedBox3d> box;  // per triangle
-  Vec3 origin = Vec3::Zero();
-  double cell = 1.0;
-  int bits = 21;
-
-  [[nodiscard]] std::array<std::int64_t, 3> cell_of(const Vec3& p) const {
-    std::array<std::int64_t, 3> c{};
-    for (int k = 0; k < 3; ++k) c[at(k)] = static_cast<std::int64_t>(std::floor((p[k] - origin[k]) / cell));
-    return c;
-  }
-  [[nodiscard]] std::uint64_t key(const std::array<std::int64_t, 3>& c) const {
-    return (static_cast<std::uint64_t>(c[0]) << (2 * bits)) | (static_cast<std::uint64_t>(c[1]) << bits) |
-           static_cast<std::uint64_t>(c[2]);
-  }
-};
-
-/// Cell size: the mean largest box extent, grown until the grid has at most
-/// 2²¹ cells an axis and the triangles fill at most 16 cells each on average.
-Boxes make_boxes(const TriangleMesh& mesh) {
-  Boxes b;
-  const Index n = mesh.num_triangles();
-  b.box.resize(at(n));
-  double extent = 0.0;
-  Eigen::AlignedBox3d all;
-  for (Index t = 0; t < n; ++t) {
-    Eigen::AlignedBox3d& box = b.box[at(t)];
-    for (int k = 0; k < 3; ++k) box.extend(mesh.vertices.row(mesh.triangles(t, k)).transpose());
-    extent += box.sizes().maxCoeff();
-    all.extend(box);
-  }
-  b.origin = all.min();
-  const double span = all.sizes().maxCoeff();
-  b.cell = std::max({extent / std::max<Index>(n, 1), span / double(1 << 20), 1e-300});
-  while (true) {
-    double entries = 0.0;
-    for (const auto& box : b.box) {
-      const auto lo = b.cell_of(box.min()), hi = b.cell_of(box.max());
-      entries += double(hi[0] - lo[0] + 1) * double(hi[1] - lo[1] + 1) * double(hi[2] - lo[2] + 1);
-    }
-    if (entries <= 16.0 * double(std::max<Index>(n, 1))) break;
-    b.cell *= 2.0;
-  }
-  return b;
-}
-
-bool boxes_overlap(const Eigen::AlignedBox3d& a, const Eigen::AlignedBox3d& b) {
-  return (a.min().array() <= b.max().array()).all() && (b.min().array() <= a.max().array()).all();
-}
-
 }  // namespace
 
 bool segment_meets_triangle(const Vec3& a, const Vec3& b, const Vec3& u, const Vec3& v, const Vec3& w) {
@@ -229,50 +178,20 @@ bool triangles_intersect(const TriangleMesh& mesh, Index s, Index t) {
 }
 
 std::vector<std::array<Index, 2>> self_intersecting_pairs(const TriangleMesh& mesh) {
-  const Index n = mesh.num_triangles();
-  if (n < 2) return {};
-  const Boxes b = make_boxes(mesh);
-
-  // (cell, triangle) for every cell a triangle's box covers, sorted by cell.
-  std::vector<std::pair<std::uint64_t, Index>> entries;
-  entries.reserve(at(n) * 4);
-  for (Index t = 0; t < n; ++t) {
-    const auto lo = b.cell_of(b.box[at(t)].min()), hi = b.cell_of(b.box[at(t)].max());
-    for (std::int64_t i = lo[0]; i <= hi[0]; ++i)
-      for (std::int64_t j = lo[1]; j <= hi[1]; ++j)
-        for (std::int64_t k = lo[2]; k <= hi[2]; ++k) entries.emplace_back(b.key({i, j, k}), t);
-  }
-  tbb::parallel_sort(entries.begin(), entries.end());  // the pairs are distinct: one order for any thread count
-  std::vector<std::size_t> run_start;
-  for (std::size_t e = 0; e < entries.size(); ++e) {
-    if (e == 0 || entries[e].first != entries[e - 1].first) run_start.push_back(e);
-  }
-  run_start.push_back(entries.size());
-
-  // Each pair is tested only in the cell of the lower corner of the two
-  // boxes' overlap, which both triangles cover.
-  const std::size_t runs = run_start.size() - 1, grain = 64;
-  std::vector<std::vector<std::array<Index, 2>>> found((runs + grain - 1) / grain);
-  tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t chunk) {
-    auto& out = found[chunk];
-    for (std::size_t r = chunk * grain; r < std::min(runs, (chunk + 1) * grain); ++r) {
-      const std::uint64_t cell = entries[run_start[r]].first;
-      for (std::size_t x = run_start[r]; x < run_start[r + 1]; ++x) {
-        const Index s = entries[x].second;
-        for (std::size_t y = x + 1; y < run_start[r + 1]; ++y) {
-          const Index t = entries[y].second;
-          const auto &bs = b.box[at(s)], &bt = b.box[at(t)];
-          if (!boxes_overlap(bs, bt)) continue;
-          if (b.key(b.cell_of(bs.min().cwiseMax(bt.min()))) != cell) continue;
-          if (triangles_intersect(mesh, s, t)) out.push_back({std::min(s, t), std::max(s, t)});
-        }
-      }
-    }
-  });
+  std::vector<Box3> boxes(at(mesh.num_triangles()));
+  for (Index t = 0; t < mesh.num_triangles(); ++t)
+    for (int k = 0; k < 3; ++k) boxes[at(t)].extend(mesh.vertices.row(mesh.triangles(t, k)).transpose());
+  const std::vector<std::array<Index, 2>> candidates = overlapping_pairs(boxes);
+  std::vector<std::uint8_t> hit(candidates.size(), 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, candidates.size(), 256),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i)
+                        hit[i] = triangles_intersect(mesh, candidates[i][0], candidates[i][1]) ? 1 : 0;
+                    });
   std::vector<std::array<Index, 2>> pairs;
-  for (const auto& f : found) pairs.insert(pairs.end(), f.begin(), f.end());
-  std::sort(pairs.begin(), pairs.end());
-  return pairs;
+  for (std::size_t i = 0; i < candidates.size(); ++i)
+    if (hit[i]) pairs.push_back(candidates[i]);
+  return pairs;  // sorted, as the candidates
 }
 
 SurfaceQuality measure_surface_quality(const TriangleMesh& mesh) {

@@ -320,6 +320,9 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
   status.collisions +=
       collisions_.resolve_velocities(body, body.velocities, constraints_.obstacles, t_next, dt, fixed_).resolved;
   times_.collisions += timer.lap();
+  if (constraints_.self_collisions)
+    status.self_collisions = self_collisions_.resolve_step(body, x0, dt, fixed_, *constraints_.self_collisions);
+  times_.self_collisions += timer.lap();
   time_ = t_next;
   status.times = times_;
   return status;

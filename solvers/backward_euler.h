@@ -13,6 +13,7 @@
 
 #include "core/body.h"
 #include "core/collisions.h"
+#include "core/contact/self_collisions.h"
 #include "core/constraints.h"
 #include "core/elastic_forces.h"
 #include "core/settings.h"
@@ -36,6 +37,7 @@ struct NewtonStatus {
   std::vector<double> residuals;  ///< after each iteration (convergence history)
   Index plastic_elements = 0;
   Index collisions = 0;
+  SelfCollisionStats self_collisions;  ///< the surface against itself
   StepTimes times;  ///< wall seconds by stage, all attempts
 };
 
@@ -71,6 +73,7 @@ class BackwardEulerIntegrator {
   ElasticForces elastic_;
   SparseHessian hessian_;
   SurfaceCollisions collisions_;
+  SelfCollisions self_collisions_;
   EmbeddedTension tension_;
   struct Factor;
   std::unique_ptr<Factor> factor_;

@@ -171,6 +171,7 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
 
   // 2. xⁿ⁺¹ = xⁿ + Δt v½; the surface smoothed and re-embedded (W&T
   // sec. 7, fig. 8); then the ground and the position collisions.
+  const Points x_start = constraints_.self_collisions ? body.positions : Points();
   body.positions += dt * body.velocities;
   times_.other += timer.lap();
   if (has_tension(body) && settings_.smoothing > 0.0)
@@ -179,6 +180,12 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
   status.ground_contacts = enforce_ground(body);
   status.collisions += collisions_.resolve_positions(body, obstacles, t_next, constrained_).resolved;
   times_.collisions += timer.lap();
+  // The surface against itself over the whole move, obstacles' corrections
+  // included; the impulses change v½ too (Bridson et al. 2002).
+  if (constraints_.self_collisions)
+    status.self_collisions =
+        self_collisions_.resolve_step(body, x_start, dt, constrained_, *constraints_.self_collisions);
+  times_.self_collisions += timer.lap();
 
   // 3. The one elastic force evaluation, at xⁿ⁺¹, with plastic flow.
   evaluate_forces(body, dt);

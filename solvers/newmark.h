@@ -4,6 +4,7 @@
 // evaluation per step, variable time step (algorithms.md, "Time integration").
 #include "core/body.h"
 #include "core/collisions.h"
+#include "core/contact/self_collisions.h"
 #include "core/constraints.h"
 #include "core/damping.h"
 #include "core/elastic_forces.h"
@@ -23,6 +24,7 @@ struct StepStatus {
   Index plastic_elements = 0;
   Index ground_contacts = 0;
   Index collisions = 0;  ///< element corrections of the embedded surface, positions and velocities
+  SelfCollisionStats self_collisions;  ///< the surface against itself
   StepTimes times;       ///< wall seconds by stage
 };
 
@@ -62,6 +64,7 @@ class NewmarkIntegrator {
   ElasticForces elastic_;
   Damping damping_;
   SurfaceCollisions collisions_;
+  SelfCollisions self_collisions_;
   EmbeddedTension tension_;
   Points forces_;  // f_e at the current positions
   StepTimes times_;  // this step's, by stage

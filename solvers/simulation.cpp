@@ -122,6 +122,7 @@ Simulation::Simulation(const Scene& scene) : scene_(scene) {
     SimulationBody b;
     b.name = object.name;
     b.regions = object.pinned;
+    b.self_collisions = object.self_collisions;
     Eigen::Vector3d centre;
     if (object.surface) {
       b.lattice = true;
@@ -165,6 +166,20 @@ void Simulation::attach(std::size_t i, double time) {
     // ground would hold the lattice's outer nodes, up to h outside the surface).
     constraints.obstacles.push_back(Obstacle{"ground", make_half_space(scene_.ground->normal, scene_.ground->offset),
                                              RigidMotion{}, scene_.ground->friction});
+  }
+  if (const SimulationBody& b = bodies_[i]; b.self_collisions.enabled) {
+    SelfCollisionParameters self;
+    self.friction = b.self_collisions.friction;
+    self.thickness = b.self_collisions.thickness;
+    if (!(self.thickness > 0.0)) {
+      double size = b.h;
+      if (!b.lattice) {  // a tetrahedral mesh: its mean rest edge length, from the mean volume of a regular tet
+        const double mean_volume = b.body.rest_volumes.sum() / std::max<Index>(1, b.body.num_elements());
+        size = std::cbrt(6.0 * std::sqrt(2.0) * mean_volume);
+      }
+      self.thickness = kSelfCollisionThicknessFraction * size;
+    }
+    constraints.self_collisions = self;
   }
   auto stepper = std::make_unique<Stepper>();
   if (scene_.integrator == IntegratorKind::newmark) {
@@ -225,11 +240,13 @@ void Simulation::step_body(std::size_t i, double max_dt) {
     const StepStatus status = s.newmark->step(b.body, max_dt);
     last_dt_ = status.dt;
     times_.step += status.times;
+    self_collisions_ += status.self_collisions;
   } else {
     try {
       const NewtonStatus status = s.backward_euler->step(b.body, max_dt);
       last_dt_ = status.dt;
       times_.step += status.times;
+      self_collisions_ += status.self_collisions;
     } catch (const Error& e) {  // Newton failed even at the smallest Δt: not bad input
       throw NumericalFailure(fmt::format("numerical failure at step {} (t = {:.6g} s): body '{}': {}; try a smaller "
                                          "backward_euler.time_step or more max_newton_iterations",

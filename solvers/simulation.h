@@ -53,6 +53,7 @@ struct SimulationBody {
   double h = 0.0;        ///< lattice spacing, m
   std::vector<PinnedRegion> regions;
   std::vector<Index> pinned;  ///< node ids held still
+  SelfCollisionSettings self_collisions;
 };
 
 class Simulation {
@@ -89,6 +90,8 @@ class Simulation {
   [[nodiscard]] std::int64_t steps() const { return steps_; }
   [[nodiscard]] std::int64_t remeshes() const { return remeshes_; }
   [[nodiscard]] const StageTimes& stage_times() const { return times_; }
+  /// What the self-collision stages did, all bodies and steps together.
+  [[nodiscard]] const SelfCollisionStats& self_collision_totals() const { return self_collisions_; }
   [[nodiscard]] const std::vector<SimulationBody>& bodies() const { return bodies_; }
   [[nodiscard]] SimulationTotals totals() const;
   /// Every body's surface at the current positions, in one mesh (body order).
@@ -109,6 +112,7 @@ class Simulation {
   double last_dt_ = 0.0;
   std::int64_t steps_ = 0;
   std::int64_t remeshes_ = 0;
+  SelfCollisionStats self_collisions_;
   StageTimes times_;
 };
 

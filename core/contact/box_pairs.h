@@ -1,0 +1,24 @@
+#pragma once
+// Broad phase of contact: which axis-aligned boxes overlap, found on a
+// uniform grid (each box is entered in every cell it covers; each pair is
+// reported by one cell only: the cell of the lower corner of the two boxes'
+// overlap, which both cover).
+#include <Eigen/Geometry>
+#include <array>
+#include <vector>
+
+#include "core/types.h"
+
+namespace goo {
+
+using Box3 = Eigen::AlignedBox3d;
+
+/// Every pair (i, j), i < j, of boxes in `boxes` that overlap (closed
+/// boxes: touching counts), sorted. Parallel; the result does not depend on
+/// the thread count. Boxes that are empty are skipped.
+std::vector<std::array<Index, 2>> overlapping_pairs(const std::vector<Box3>& boxes);
+
+/// Every pair (i, j) of a box of `a` and a box of `b` that overlap, sorted.
+std::vector<std::array<Index, 2>> overlapping_pairs(const std::vector<Box3>& a, const std::vector<Box3>& b);
+
+}  // namespace goo

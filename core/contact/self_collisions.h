@@ -1,0 +1,107 @@
+#pragma once
+// Self-collisions of a body's embedded surface over one step (W&T sec. 4;
+// Bridson, Fedkiw & Anderson 2002): proximity repulsion, continuous
+// collision detection of vertex–triangle and edge–edge pairs with
+// inelastic, frictional impulses, and rigid impact zones as the fail-safe,
+// so that no step makes the surface pass through itself
+// (docs/embedded-surface.md, "Self-collisions").
+//
+// The surface moves with the nodes: x_s = W x. An impulse J on a pair of
+// surface points reaches the nodes as the quantity Wᵀ J (each node i gets
+// its share c_i J and moves by c_i J / m_i), so the total momentum does not
+// change (Σ c_i = 0 for the two sides of a pair).
+#include <cstdint>
+#include <vector>
+
+#include "core/body.h"
+#include "core/contact/box_pairs.h"
+#include "core/contact/ccd.h"
+
+namespace goo {
+
+struct SelfCollisionStats {
+  Index candidates = 0;         ///< pairs left by the broad phase, all rounds together
+  Index repulsions = 0;         ///< impulses on pairs that started closer than the thickness
+  Index impacts = 0;            ///< impulses on pairs that would have come closer during the step
+  int rounds = 0;               ///< detection rounds with impulses
+  int zone_rounds = 0;          ///< fail-safe rounds (rigid impact zones)
+  Index zone_nodes = 0;         ///< nodes moved rigidly by the fail-safe
+  Index touching_at_start = 0;  ///< pairs at distance 0 when the step began (left alone)
+  Index list_builds = 0;        ///< broad phases run (a candidate list is kept while it holds)
+
+  SelfCollisionStats& operator+=(const SelfCollisionStats& o) {
+    candidates += o.candidates, repulsions += o.repulsions, impacts += o.impacts, rounds += o.rounds;
+    zone_rounds += o.zone_rounds, zone_nodes += o.zone_nodes, touching_at_start += o.touching_at_start;
+    list_builds += o.list_builds;
+    return *this;
+  }
+};
+
+struct SelfCollisionParameters {
+  double thickness = 0.0;  ///< m: pairs are kept at least this far apart (those that start closer, apart from half their gap)
+  double friction = 0.0;   ///< Coulomb coefficient between sheets of the surface
+  int max_rounds = 8;      ///< impulse rounds before the fail-safe
+};
+
+class SelfCollisions {
+ public:
+  /// Changes the node displacements `d` (#N×3) of a step that starts at node
+  /// positions `x0` (#N×3), so that the body's surface, moving linearly from
+  /// W x0 to W (x0 + d), does not pass through itself. Nodes flagged in
+  /// `fixed` keep their displacement. Deterministic for any thread count.
+  SelfCollisionStats resolve(const Body& body, const Points& x0, Points& d, const std::vector<std::uint8_t>& fixed,
+                             const SelfCollisionParameters& parameters);
+
+  /// The same for a step of length dt that took the body from node
+  /// positions x0 to its current positions: the nodes whose displacement
+  /// changes move there, and their velocities change by the same amount
+  /// over dt (the impulses' velocity change). Nothing changes, to the bit,
+  /// when no impulse was needed.
+  SelfCollisionStats resolve_step(Body& body, const Points& x0, double dt, const std::vector<std::uint8_t>& fixed,
+                                  const SelfCollisionParameters& parameters);
+
+ private:
+  struct Pair {
+    std::uint8_t kind;               // ccd::PairKind
+    std::array<Index, 4> vertices;   // surface vertices: vertex, triangle; or edge, edge
+    std::array<Index, 2> primitives; // (vertex, triangle) or (edge, edge) ids
+  };
+  struct Impact {
+    std::size_t pair;
+    double toi;
+  };
+  /// Returns whether the surface's topology changed (the edges are rebuilt).
+  bool update_edges(const Triangles& triangles);
+  /// The swept boxes of this step, and the candidate pairs: a list built
+  /// with boxes grown by a margin is kept while every surface vertex stays
+  /// within the margin of where it was at the build (after the surface's
+  /// mean translation), so it holds every pair whose swept boxes overlap now.
+  /// Returns whether the list was built anew.
+  bool find_candidates(const Body& body, const Points& xs0, const Points& ds, double thickness,
+                       SelfCollisionStats& stats);
+  /// Whether a candidate's swept boxes of this step overlap.
+  [[nodiscard]] bool boxes_meet(const Pair& pair) const;
+  /// Impacts among the candidates: pairs that come within the thickness
+  /// (or half their starting gap) while approaching. With `zone`, pairs whose
+  /// nodes all lie in one rigid zone are skipped (their distances cannot
+  /// shrink). With `only`, pairs none of whose vertices it flags are skipped.
+  std::vector<Impact> detect(const Body& body, const Points& xs0, const Points& ds, double thickness,
+                             const std::vector<Index>* zone, const std::vector<std::uint8_t>* only,
+                             SelfCollisionStats& stats);
+  /// One impulse bringing the pair's relative normal displacement over the
+  /// step up to `target` (m), along the line of the pair's closest points at
+  /// positions `x`, with friction. Returns whether it acted.
+  bool apply_impulse(const Body& body, const Pair& pair, const ccd::Points4& x, Points& d,
+                     const std::vector<std::uint8_t>& fixed, double target, double friction) const;
+
+  Triangles triangles_;                      // the surface the edges below belong to
+  std::vector<std::array<Index, 2>> edges_;  // unique surface edges, sorted
+  std::vector<Box3> vertex_boxes_, triangle_boxes_, edge_boxes_;  // swept this step, grown by half the thickness
+  std::vector<Pair> candidates_;
+  std::vector<double> start_;  // per candidate, its distance at the step's start (−1: not measured)
+  Points list_positions_;       // the surface where the candidate list was built
+  std::vector<double> margin_;  // per vertex, how far it may move before the list is built again
+  bool list_valid_ = false;
+};
+
+}  // namespace goo

@@ -1,0 +1,117 @@
+// Distances and continuous collision detection of surface primitives
+// against exact answers on constructed cases.
+#include <gtest/gtest.h>
+
+#include "core/contact/ccd.h"
+
+namespace goo::ccd {
+namespace {
+
+using V = Vec3;
+
+TEST(Distance, PointTriangleRegions) {
+  const V a(0, 0, 0), b(1, 0, 0), c(0, 1, 0);
+  Vec3 w;
+  EXPECT_DOUBLE_EQ(point_triangle_distance2(V(0.2, 0.3, 2), a, b, c, &w), 4.0);  // above the face
+  EXPECT_NEAR(w[1], 0.2, 1e-15);
+  EXPECT_NEAR(w[2], 0.3, 1e-15);
+  EXPECT_DOUBLE_EQ(point_triangle_distance2(V(0.5, -1, 0), a, b, c, &w), 1.0);  // beside edge ab
+  EXPECT_NEAR(w[1], 0.5, 1e-15);
+  EXPECT_DOUBLE_EQ(point_triangle_distance2(V(-1, -1, 1), a, b, c, &w), 3.0);  // beyond corner a
+  EXPECT_EQ(w, V(1, 0, 0));
+  EXPECT_NEAR(point_triangle_distance2(V(1, 1, 0), a, b, c, &w), 0.5, 1e-15);  // beyond the hypotenuse
+  EXPECT_NEAR(w[1], 0.5, 1e-15);
+  // A triangle without area: its longest edge.
+  EXPECT_NEAR(point_triangle_distance2(V(0.5, 1, 0), a, b, V(0.5, 0, 0)), 1.0, 1e-15);
+}
+
+TEST(Distance, SegmentSegment) {
+  double s = 0, u = 0;
+  // Skew lines crossing at distance 1.
+  EXPECT_DOUBLE_EQ(segment_segment_distance2(V(-1, 0, 0), V(1, 0, 0), V(0, -1, 1), V(0, 1, 1), &s, &u), 1.0);
+  EXPECT_DOUBLE_EQ(s, 0.5);
+  EXPECT_DOUBLE_EQ(u, 0.5);
+  // Crossing: 0.
+  EXPECT_DOUBLE_EQ(segment_segment_distance2(V(-1, 0, 0), V(1, 0, 0), V(0, -1, 0), V(0, 1, 0)), 0.0);
+  // Parallel, overlapping in x, 2 apart; and end to end, 3 apart.
+  EXPECT_DOUBLE_EQ(segment_segment_distance2(V(0, 0, 0), V(2, 0, 0), V(1, 2, 0), V(3, 2, 0)), 4.0);
+  EXPECT_DOUBLE_EQ(segment_segment_distance2(V(0, 0, 0), V(1, 0, 0), V(4, 0, 0), V(5, 0, 0)), 9.0);
+  // A point against a segment.
+  EXPECT_DOUBLE_EQ(segment_segment_distance2(V(0.5, 1, 0), V(0.5, 1, 0), V(0, 0, 0), V(1, 0, 0)), 1.0);
+}
+
+// A pair is reported approaching, between min_distance and twice that.
+
+TEST(TimeOfImpact, VertexThroughFace) {
+  // The vertex falls from z = 1 to z = −1 through the face at t = 0.5.
+  const Points4 x{V(0.2, 0.2, 1), V(0, 0, 0), V(1, 0, 0), V(0, 1, 0)};
+  const Points4 d{V(0, 0, -2), V(0, 0, 0), V(0, 0, 0), V(0, 0, 0)};
+  const double delta = 1e-3;
+  const auto toi = time_of_impact(PairKind::vertex_triangle, x, d, delta);
+  ASSERT_TRUE(toi);
+  // Distance 1 − 2t at the reported time lies in [δ, 2δ].
+  EXPECT_GE(1 - 2 * *toi, delta);
+  EXPECT_LE(1 - 2 * *toi, 2 * delta + 1e-12);
+  // Passing beside the triangle, and stopping short of it: nothing.
+  Points4 beside = x;
+  beside[0] = V(0.8, 0.8, 1);
+  EXPECT_FALSE(time_of_impact(PairKind::vertex_triangle, beside, d, delta));
+  Points4 short_d = d;
+  short_d[0] = V(0, 0, -0.99);
+  EXPECT_FALSE(time_of_impact(PairKind::vertex_triangle, x, short_d, 0.0));
+  // Only the relative motion counts: the whole pair moving together.
+  const Points4 together{V(0, 0, -2), V(0, 0, -2), V(0, 0, -2), V(0, 0, -2)};
+  EXPECT_FALSE(time_of_impact(PairKind::vertex_triangle, x, together, delta));
+  // Separating.
+  Points4 up = d;
+  up[0] = V(0, 0, 2);
+  EXPECT_FALSE(time_of_impact(PairKind::vertex_triangle, x, up, delta));
+  // The triangle rising to meet the vertex at t = 0.25.
+  const Points4 rise{V(0, 0, -2), V(0, 0, 2), V(0, 0, 2), V(0, 0, 2)};
+  const auto meet = time_of_impact(PairKind::vertex_triangle, x, rise, delta);
+  ASSERT_TRUE(meet);
+  EXPECT_GE(1 - 4 * *meet, delta);
+  EXPECT_LE(1 - 4 * *meet, 2 * delta + 1e-12);
+}
+
+TEST(TimeOfImpact, VertexSlidingInThePlaneThroughAnEdge) {
+  // Degenerate: the vertex moves in the triangle's plane, through edge bc.
+  const Points4 x{V(1, 1, 0), V(0, 0, 0), V(1, 0, 0), V(0, 1, 0)};
+  const Points4 d{V(-1, -1, 0), V(0, 0, 0), V(0, 0, 0), V(0, 0, 0)};
+  const auto toi = time_of_impact(PairKind::vertex_triangle, x, d, 1e-4);
+  ASSERT_TRUE(toi);
+  const double distance = (1 - *toi) * std::sqrt(2.0) - std::sqrt(0.5);  // to the edge x + y = 1
+  EXPECT_GE(distance, 1e-4);
+  EXPECT_LE(distance, 2e-4 + 1e-12);
+}
+
+TEST(TimeOfImpact, EdgesCrossing) {
+  // Edge a along x at z = 1 falls onto edge b along y at z = 0 and through it.
+  const Points4 x{V(-1, 0, 1), V(1, 0, 1), V(0, -1, 0), V(0, 1, 0)};
+  const Points4 d{V(0, 0, -2), V(0, 0, -2), V(0, 0, 0), V(0, 0, 0)};
+  const double delta = 1e-3;
+  const auto toi = time_of_impact(PairKind::edge_edge, x, d, delta);
+  ASSERT_TRUE(toi);
+  EXPECT_GE(1 - 2 * *toi, delta);
+  EXPECT_LE(1 - 2 * *toi, 2 * delta + 1e-12);
+  // Shifted along x beyond b's reach: they pass.
+  Points4 far = x;
+  far[0] += V(3, 0, 0);
+  far[1] += V(3, 0, 0);
+  EXPECT_FALSE(time_of_impact(PairKind::edge_edge, far, d, delta));
+  // Parallel edges closing in: caught before they come within δ.
+  const Points4 parallel{V(0, 0, 1), V(1, 0, 1), V(0.5, 0, 0), V(1.5, 0, 0)};
+  const auto p = time_of_impact(PairKind::edge_edge, parallel, d, delta);
+  ASSERT_TRUE(p);
+  EXPECT_GE(1 - 2 * *p, delta);
+  EXPECT_LE(1 - 2 * *p, 2 * delta + 1e-12);
+}
+
+TEST(TimeOfImpact, StartingWithinTheDistanceReportsZero) {
+  const Points4 x{V(0.2, 0.2, 1e-4), V(0, 0, 0), V(1, 0, 0), V(0, 1, 0)};
+  const Points4 d{V::Zero(), V::Zero(), V::Zero(), V::Zero()};
+  EXPECT_EQ(time_of_impact(PairKind::vertex_triangle, x, d, 1e-3), 0.0);
+}
+
+}  // namespace
+}  // namespace goo::ccd

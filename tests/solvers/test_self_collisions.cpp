@@ -1,0 +1,176 @@
+// Self-collisions of the embedded surface over one step: no crossing at any
+// time of the step, momentum kept, nothing changed when nothing approaches,
+// the same bits on one and two threads.
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <random>
+
+#include "core/contact/self_collisions.h"
+#include "core/primitives.h"
+#include "meshing/surface_intersections.h"
+#include "solvers/remesh.h"
+
+namespace goo {
+namespace {
+
+Material gel() {
+  Material m;
+  m.density = 1000.0;
+  m.youngs_modulus = 2e4;
+  m.poisson_ratio = 0.3;
+  m.min_mass_fraction = 0.1;
+  return m;
+}
+
+/// Two boxes of 0.1 m (the lower one `lower_width` wide), one above the
+/// other with a gap, in one body on a 0.04 m lattice (a gap over two lattice
+/// spacings: no element holds both).
+Body stacked_boxes(double gap, double lower_width = 0.1) {
+  TriangleMesh a = make_box({lower_width, lower_width, 0.1}, 4), b = make_box({0.1, 0.1, 0.1}, 4);
+  b.vertices.col(2).array() += 0.1 + gap;
+  TriangleMesh both;
+  both.vertices.resize(a.num_vertices() * 2, 3);
+  both.vertices << a.vertices, b.vertices;
+  both.triangles.resize(a.num_triangles() * 2, 3);
+  both.triangles << a.triangles, b.triangles.array() + a.num_vertices();
+  return mesh_body(both, gel(), 0.04).body;
+}
+
+/// Crossing triangle pairs of the surface at time t of the step x0 → x0 + d.
+std::size_t crossings_at(const Body& body, const Points& x0, const Points& d, double t) {
+  const Points x = x0 + t * d;
+  return self_intersecting_pairs({body.embedding.surface_positions(body.tets, x), body.surface_triangles}).size();
+}
+
+Eigen::Vector3d momentum_change(const Body& body, const Points& before, const Points& after) {
+  return ((after - before).array().colwise() * body.masses.array()).colwise().sum().transpose();
+}
+
+double momentum_scale(const Body& body, const Points& d) {
+  return (d.rowwise().norm().array() * body.masses.array()).sum();
+}
+
+TEST(SelfCollisions, BoxThrownThroughAnotherWithinOneStepStopsOnIt) {
+  const double gap = 0.1;
+  const Body body = stacked_boxes(gap);
+  const Points x0 = body.positions;
+  // The upper box's nodes move 0.4 m down in one step: through the lower box.
+  Points d = Points::Zero(body.num_nodes(), 3);
+  const double split = 0.05 + 0.5 * gap;
+  for (Index n = 0; n < body.num_nodes(); ++n)
+    if (x0(n, 2) > split) d(n, 2) = -0.4;
+  const Points before = d;
+  ASSERT_EQ(crossings_at(body, x0, d, 0.0), 0u);
+  ASSERT_GT(crossings_at(body, x0, d, 0.5), 0u);  // without the stage they cross
+  SelfCollisions stage;
+  const SelfCollisionStats stats = stage.resolve(body, x0, d, {}, {1e-4, 0.0, 8});
+  EXPECT_GT(stats.impacts + stats.zone_nodes, 0);
+  for (const double t : {0.05, 0.1, 0.25, 0.5, 0.75, 1.0}) EXPECT_EQ(crossings_at(body, x0, d, t), 0u) << "t = " << t;
+  // The upper box ends on the lower one, not below its top.
+  const Points xs = body.embedding.surface_positions(body.tets, x0 + d);
+  const Index half = static_cast<Index>(xs.rows() / 2);
+  EXPECT_GE(xs.bottomRows(xs.rows() - half).col(2).minCoeff(), xs.topRows(half).col(2).maxCoeff() - 1e-12);
+  // Impulses are equal and opposite: momentum moves between the boxes only.
+  EXPECT_LT(momentum_change(body, before, d).norm(), 1e-12 * momentum_scale(body, before));
+}
+
+TEST(SelfCollisions, NothingChangesWhenNothingApproaches) {
+  const Body body = stacked_boxes(0.1);
+  const Points x0 = body.positions;
+  SelfCollisions stage;
+  // A common translation, and the boxes drawing apart: not a bit changes.
+  for (const double lift : {0.0, 0.02}) {
+    Points d = Points::Constant(body.num_nodes(), 3, -0.013);
+    for (Index n = 0; n < body.num_nodes(); ++n)
+      if (x0(n, 2) > 0.1) d(n, 2) += lift;
+    const Points before = d;
+    const SelfCollisionStats stats = stage.resolve(body, x0, d, {}, {1e-4, 0.0, 8});
+    EXPECT_EQ(stats.impacts + stats.repulsions + stats.zone_nodes, 0);
+    EXPECT_TRUE(d == before);
+  }
+}
+
+/// A lumpy sphere whose nodes are shaken hard in one step: its surface
+/// folds through itself unless the stage stops it.
+struct Crumple {
+  Body body;
+  Points x0, d;
+};
+Crumple crumple(unsigned seed, double amplitude) {
+  Crumple c{mesh_body(make_sphere(0.1, 24), gel(), 0.04).body, {}, {}};
+  c.x0 = c.body.positions;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, amplitude);
+  c.d = Points::Zero(c.body.num_nodes(), 3);
+  for (Index n = 0; n < c.body.num_nodes(); ++n)
+    for (int k = 0; k < 3; ++k) c.d(n, k) = noise(rng);
+  return c;
+}
+
+TEST(SelfCollisions, ShakenSphereNeverCrossesItself) {
+  int crossed_without = 0;
+  for (unsigned seed = 1; seed <= 6; ++seed) {
+    Crumple c = crumple(seed, 0.03);
+    const Points before = c.d;
+    ASSERT_EQ(crossings_at(c.body, c.x0, c.d, 0.0), 0u);
+    if (crossings_at(c.body, c.x0, c.d, 1.0) > 0) ++crossed_without;
+    SelfCollisions stage;
+    stage.resolve(c.body, c.x0, c.d, {}, {2e-5, 0.3, 8});
+    for (const double t : {0.25, 0.5, 0.75, 1.0})
+      EXPECT_EQ(crossings_at(c.body, c.x0, c.d, t), 0u) << "seed " << seed << ", t = " << t;
+    EXPECT_LT(momentum_change(c.body, before, c.d).norm(), 1e-12 * momentum_scale(c.body, before));
+  }
+  EXPECT_GE(crossed_without, 3);  // the shaking is hard enough to matter
+}
+
+TEST(SelfCollisions, RigidZonesAloneKeepTheSurfaceApart) {
+  // No impulse rounds at all: the fail-safe does everything.
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    Crumple c = crumple(seed, 0.03);
+    if (crossings_at(c.body, c.x0, c.d, 1.0) == 0) continue;
+    const Points before = c.d;
+    SelfCollisions stage;
+    const SelfCollisionStats stats = stage.resolve(c.body, c.x0, c.d, {}, {2e-5, 0.0, 0});
+    EXPECT_GT(stats.zone_nodes, 0);
+    for (const double t : {0.25, 0.5, 0.75, 1.0}) EXPECT_EQ(crossings_at(c.body, c.x0, c.d, t), 0u);
+    // A rigid zone keeps the linear momentum of its displacements.
+    EXPECT_LT(momentum_change(c.body, before, c.d).norm(), 1e-12 * momentum_scale(c.body, before));
+  }
+}
+
+TEST(SelfCollisions, SameBitsOnOneAndTwoThreads) {
+  Points one, two;
+  for (const int threads : {1, 2}) {
+    tbb::global_control control(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    Crumple c = crumple(4, 0.03);
+    SelfCollisions stage;
+    stage.resolve(c.body, c.x0, c.d, {}, {2e-5, 0.3, 8});
+    (threads == 1 ? one : two) = c.d;
+  }
+  EXPECT_TRUE(one == two);
+}
+
+TEST(SelfCollisions, FrictionHoldsBackSliding) {
+  // The upper box comes down onto a wider lower one while sliding sideways:
+  // with friction its surface slides less over the step.
+  auto slide = [](double friction) {
+    const Body body = stacked_boxes(0.1, 0.3);
+    const Points x0 = body.positions;
+    Points d = Points::Zero(body.num_nodes(), 3);
+    for (Index n = 0; n < body.num_nodes(); ++n)
+      if (x0(n, 2) > 0.1) d.row(n) << 0.03, 0.0, -0.15;
+    SelfCollisions stage;
+    const SelfCollisionStats stats = stage.resolve(body, x0, d, {}, {1e-4, friction, 8});
+    EXPECT_GT(stats.impacts, 0);
+    EXPECT_EQ(crossings_at(body, x0, d, 1.0), 0u);
+    const Points ds = body.embedding.surface_positions(body.tets, d);
+    return ds.bottomRows(ds.rows() / 2).col(0).mean();
+  };
+  const double free = slide(0.0), held = slide(1.0);
+  EXPECT_GT(free, 0.0);
+  EXPECT_LT(held, free);
+}
+
+}  // namespace
+}  // namespace goo
