@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/parallel.h"
 #include "core/polygon_soup.h"
+#include "meshing/surface_intersections.h"
 
 namespace goo {
 namespace {
@@ -102,13 +103,59 @@ double cone6(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Ve
   return a.dot(b.cross(c));
 }
 
+/// Triangles by grid cell, for "which triangles may meet this box": each
+/// triangle is entered in the cells its box covers (again when it changes;
+/// a query checks the boxes themselves).
+class TriangleGrid {
+ public:
+  explicit TriangleGrid(double cell) : cell_(cell) {}
+  TriangleGrid(const TriangleMesh& s, double cell) : cell_(cell) {
+    for (Index t = 0; t < s.num_triangles(); ++t) insert(s, t);
+  }
+  void insert(const TriangleMesh& s, Index t) {
+    for_cells(box(s, t), [&](std::uint64_t key) { cells_[key].push_back(t); });
+  }
+  /// The triangles entered in the cells of `query`, each once, sorted.
+  std::vector<Index> near(const Eigen::AlignedBox3d& query) const {
+    std::vector<Index> out;
+    for_cells(query, [&](std::uint64_t key) {
+      if (const auto it = cells_.find(key); it != cells_.end()) out.insert(out.end(), it->second.begin(), it->second.end());
+    });
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
+  }
+  static Eigen::AlignedBox3d box(const TriangleMesh& s, Index t) {
+    Eigen::AlignedBox3d b;
+    for (int k = 0; k < 3; ++k) b.extend(point(s, s.triangles(t, k)));
+    return b;
+  }
+
+ private:
+  template <typename F>
+  void for_cells(const Eigen::AlignedBox3d& b, F&& f) const {
+    const Eigen::Array3d lo = (b.min().array() / cell_).floor(), hi = (b.max().array() / cell_).floor();
+    for (double x = lo[0]; x <= hi[0]; ++x)
+      for (double y = lo[1]; y <= hi[1]; ++y)
+        for (double z = lo[2]; z <= hi[2]; ++z) {
+          const auto i = static_cast<std::uint64_t>(static_cast<std::int64_t>(x) & 0x1fffff);
+          const auto j = static_cast<std::uint64_t>(static_cast<std::int64_t>(y) & 0x1fffff);
+          const auto k = static_cast<std::uint64_t>(static_cast<std::int64_t>(z) & 0x1fffff);
+          f((i << 42) | (j << 21) | k);
+        }
+  }
+  double cell_;
+  std::unordered_map<std::uint64_t, std::vector<Index>> cells_;
+};
+
 struct CollapsePass {
   Index collapses = 0;
   Index refused = 0;
+  Index refused_crossing = 0;
   double volume_change = 0.0;
 };
 
-CollapsePass collapse_pass(TriangleMesh& s, double limit) {
+CollapsePass collapse_pass(TriangleMesh& s, double limit, double cell) {
   CollapsePass out;
   // Edges shorter than the limit when the pass starts, shortest first. (A
   // collapse moves vertices, but only those of edges it marks dirty, which
@@ -131,6 +178,8 @@ CollapsePass collapse_pass(TriangleMesh& s, double limit) {
       if (const Index v = s.triangles(t, k); slot[at(v)] >= 0) stars[at(slot[at(v)])].push_back(t);
   auto star = [&](Index v) -> std::vector<Index>& { return stars[at(slot[at(v)])]; };
   std::vector<std::uint8_t> dead(at(nt), 0), dirty(at(nv), 0);
+  const TriangleGrid before_pass(s, cell);
+  TriangleGrid changed(cell);  // the triangles a collapse moved, at their new places
   auto neighbours = [&](Index v) {
     std::vector<Index> out_v;
     for (const Index t : star(v))
@@ -204,15 +253,47 @@ CollapsePass collapse_pass(TriangleMesh& s, double limit) {
       ++out.refused;
       continue;
     }
-    out.volume_change += std::abs(volume_with(p) - before);
+    // Tentatively: b merged into a at p. Refused, and undone, if a triangle
+    // of the new fan meets any other triangle (surface_intersections.h): a
+    // collapse must never make the surface pass through itself.
+    const Eigen::Vector3d old_a = pa;
     s.vertices.row(a) = p.transpose();
     for (const Index t : sides) dead[at(t)] = 1;
+    std::vector<Index> moved_from_b;
+    std::vector<std::pair<Index, int>> renamed;  // (triangle, corner) that said b
     for (const Index t : star(b))
       if (!dead[at(t)]) {
         for (int k = 0; k < 3; ++k)
-          if (s.triangles(t, k) == b) s.triangles(t, k) = a;
-        star(a).push_back(t);
+          if (s.triangles(t, k) == b) {
+            s.triangles(t, k) = a;
+            renamed.emplace_back(t, k);
+          }
+        moved_from_b.push_back(t);
       }
+    bool crosses = false;
+    for (const Index f : keep) {
+      const Eigen::AlignedBox3d fan_box = TriangleGrid::box(s, f);
+      for (const TriangleGrid* grid : {&before_pass, static_cast<const TriangleGrid*>(&changed)}) {
+        for (const Index g : grid->near(fan_box))
+          if (g != f && !dead[at(g)] && TriangleGrid::box(s, g).intersects(fan_box) && triangles_intersect(s, f, g)) {
+            crosses = true;
+            break;
+          }
+        if (crosses) break;
+      }
+      if (crosses) break;
+    }
+    if (crosses) {
+      s.vertices.row(a) = old_a.transpose();
+      for (const Index t : sides) dead[at(t)] = 0;
+      for (const auto& [t, k] : renamed) s.triangles(t, k) = b;
+      ++out.refused;
+      ++out.refused_crossing;
+      continue;
+    }
+    out.volume_change += std::abs(volume_with(p) - before);
+    for (const Index t : moved_from_b) star(a).push_back(t);
+    for (const Index t : keep) changed.insert(s, t);
     // The neighbourhood changed: its edges wait for the next pass.
     dirty[at(a)] = dirty[at(b)] = 1;
     for (const Index v : na) dirty[at(v)] = 1;
@@ -243,9 +324,10 @@ UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSetting
     if (n == 0) break;
   }
   for (int pass = 0; pass < settings.max_passes; ++pass) {
-    const CollapsePass c = collapse_pass(surface, settings.collapse_length * h);
+    const CollapsePass c = collapse_pass(surface, settings.collapse_length * h, settings.split_length * h);
     report.collapses += c.collapses;
     report.refused += c.refused;
+    report.refused_crossing += c.refused_crossing;
     report.volume_change_bound += c.volume_change;
     if (c.collapses == 0) break;
   }

@@ -12,7 +12,8 @@ namespace goo {
 struct UpkeepReport {
   Index splits = 0;
   Index collapses = 0;
-  Index refused = 0;                ///< collapses refused (link condition, flipped or degenerate triangles)
+  Index refused = 0;                ///< collapses refused (link condition, flipped or degenerate triangles, crossings)
+  Index refused_crossing = 0;       ///< of those, refused because the new fan would meet another triangle
   double volume_change_bound = 0.0; ///< Σ |ΔV| of the collapses, m³ (0 when every collapse preserved volume)
 };
 
@@ -24,7 +25,9 @@ struct UpkeepReport {
 /// - Collapse of (a, b): refused unless a and b share exactly the two
 ///   opposite vertices (link condition: the surface stays closed and
 ///   manifold) and no surviving triangle flips (normal turning by more than
-///   90°) or degenerates. The merged vertex goes where the enclosed volume
+///   90°) or degenerates, and unless no triangle of the new fan meets any
+///   other triangle (exact tests: a collapse never makes the surface pass
+///   through itself). The merged vertex goes where the enclosed volume
 ///   is unchanged (the change is affine in its position: solved along ab,
 ///   clamped to the segment), else the nearest point of the segment.
 UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSettings& settings = {});

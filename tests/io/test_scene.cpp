@@ -91,6 +91,34 @@ TEST(Scene, IntegratorAndItsSettingsAreChosenPerScene) {
   EXPECT_EQ(t.newmark.smoothing, 0.5);
 }
 
+TEST(Scene, SelfCollisionsAreOnUnlessSwitchedOff) {
+  const auto cube_with = [](const std::string& value) {
+    return with_object(fmt::format(
+        R"({{"primitive": {{"type": "box", "size": [0.2, 0.2, 0.2]}}, "material": "jiggly_gelatin", "lattice_spacing": 0.05, "self_collisions": {}}})",
+        value));
+  };
+  const Scene on = parse(with_object(kCube));
+  EXPECT_TRUE(on.objects[0].self_collisions.enabled);
+  EXPECT_EQ(on.objects[0].self_collisions.thickness, 0.0);  // the default: a fraction of the lattice spacing
+  EXPECT_FALSE(parse(cube_with("false")).objects[0].self_collisions.enabled);
+  const Scene set = parse(cube_with(R"({"thickness": 0.001, "friction": 0.4})"));
+  EXPECT_TRUE(set.objects[0].self_collisions.enabled);
+  EXPECT_EQ(set.objects[0].self_collisions.thickness, 0.001);
+  EXPECT_EQ(set.objects[0].self_collisions.friction, 0.4);
+  EXPECT_FALSE(parse(cube_with(R"({"enabled": false})")).objects[0].self_collisions.enabled);
+  // Refused, naming the field.
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(cube_with(R"({"thickness": -1})")); },
+                                            "/objects/0/self_collisions/thickness must be positive"));
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(cube_with(R"({"thickness": 0.05})")); },
+                                            "/objects/0/self_collisions/thickness must be below a tenth of the object's size"));
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(cube_with(R"({"friction": -0.1})")); },
+                                            "/objects/0/self_collisions/friction must be"));
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(cube_with(R"({"thicknes": 0.001})")); },
+                                            "/objects/0/self_collisions/thicknes is not a known key"));
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(cube_with(R"("yes")")); },
+                                            "/objects/0/self_collisions must be an object"));
+}
+
 struct BadScene {
   std::string name;
   std::string text;
