@@ -191,7 +191,8 @@ std::vector<std::array<Index, 2>> self_intersecting_pairs(const TriangleMesh& me
   std::vector<std::array<Index, 2>> pairs;
   for (std::size_t i = 0; i < candidates.size(); ++i)
     if (hit[i]) pairs.push_back(candidates[i]);
-  return pairs;  // sorted, as the candidates
+  std::sort(pairs.begin(), pairs.end());
+  return pairs;
 }
 
 SurfaceQuality measure_surface_quality(const TriangleMesh& mesh) {

@@ -14,11 +14,12 @@ namespace goo {
 using Box3 = Eigen::AlignedBox3d;
 
 /// Every pair (i, j), i < j, of boxes in `boxes` that overlap (closed
-/// boxes: touching counts), sorted. Parallel; the result does not depend on
-/// the thread count. Boxes that are empty are skipped.
+/// boxes: touching counts), once each, in an order fixed by the boxes (by
+/// grid cell): parallel, and the same for any thread count. Empty boxes
+/// are skipped.
 std::vector<std::array<Index, 2>> overlapping_pairs(const std::vector<Box3>& boxes);
 
-/// Every pair (i, j) of a box of `a` and a box of `b` that overlap, sorted.
+/// Every pair (i, j) of a box of `a` and a box of `b` that overlap, as above.
 std::vector<std::array<Index, 2>> overlapping_pairs(const std::vector<Box3>& a, const std::vector<Box3>& b);
 
 }  // namespace goo

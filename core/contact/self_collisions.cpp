@@ -6,6 +6,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <map>
+#include <tuple>
 
 #include "core/contact/box_pairs.h"
 #include "core/contact/ccd.h"
@@ -20,6 +21,10 @@ using Vec3 = Eigen::Vector3d;
 
 constexpr double kRepulsionFraction = 0.1;  // of the missing thickness, per step (Bridson et al. 2002, sec. 7.2)
 constexpr int kMaxZoneRounds = 64;
+// An impact leaves its pair separating by a tenth of the thickness over the
+// step, not merely at rest: other impulses of the round then rarely turn it
+// back into an approach.
+constexpr double kSeparationFraction = 0.1;
 
 /// The nodes a pair's relative point depends on, with coefficients c_i:
 /// it moves by Σ c_i d_i. At most 4 vertices × 4 nodes.
@@ -51,6 +56,19 @@ NodeWeights node_weights(const Body& body, const std::array<Index, 4>& vertices,
 
 ccd::Points4 gather(const Points& xs, const std::array<Index, 4>& v) {
   return {xs.row(v[0]).transpose(), xs.row(v[1]).transpose(), xs.row(v[2]).transpose(), xs.row(v[3]).transpose()};
+}
+
+/// How far the two primitives of a pair can have come closer than they were
+/// at the build, when each vertex lies within `by[v]` (each coordinate) of
+/// its place then, after a common translation: √3 × the largest on each side.
+double reach(PairKind kind, const std::array<Index, 4>& v, const std::vector<double>& by) {
+  const std::size_t first_side = kind == PairKind::vertex_triangle ? 1 : 2;
+  double a = 0.0, b = 0.0;
+  for (std::size_t k = 0; k < 4; ++k) {
+    double& side = k < first_side ? a : b;
+    side = std::max(side, by[at(v[k])]);
+  }
+  return std::sqrt(3.0) * (a + b);
 }
 
 Box3 grown(Box3 b, double by) {
@@ -100,15 +118,32 @@ void rigidify(const Body& body, const Points& x0, Points& d, const std::vector<s
 bool SelfCollisions::update_edges(const Triangles& triangles) {
   if (triangles.rows() == triangles_.rows() && triangles == triangles_) return false;
   triangles_ = triangles;
-  edges_.clear();
-  edges_.reserve(at(static_cast<Index>(triangles.rows())) * 3);
-  for (Eigen::Index t = 0; t < triangles.rows(); ++t)
+  const Index nt = static_cast<Index>(triangles.rows());
+  // (a, b, triangle, corner) for every side of every triangle, sorted: runs
+  // are the edges; the lowest triangle of a run owns the edge.
+  std::vector<std::array<Index, 4>> sides;
+  sides.reserve(at(nt) * 3);
+  Index nv = 0;
+  for (Index t = 0; t < nt; ++t)
     for (int k = 0; k < 3; ++k) {
       const Index a = triangles(t, k), b = triangles(t, (k + 1) % 3);
-      edges_.push_back({std::min(a, b), std::max(a, b)});
+      sides.push_back({std::min(a, b), std::max(a, b), t, k});
+      nv = std::max(nv, a + 1);
     }
-  std::sort(edges_.begin(), edges_.end());
-  edges_.erase(std::unique(edges_.begin(), edges_.end()), edges_.end());
+  std::sort(sides.begin(), sides.end());
+  edges_.clear();
+  edge_owner_.clear();
+  triangle_edges_.assign(at(nt), {});
+  for (std::size_t i = 0; i < sides.size(); ++i) {
+    if (i == 0 || sides[i][0] != sides[i - 1][0] || sides[i][1] != sides[i - 1][1]) {
+      edges_.push_back({sides[i][0], sides[i][1]});
+      edge_owner_.push_back(sides[i][2]);
+    }
+    triangle_edges_[at(sides[i][2])][at(sides[i][3])] = static_cast<Index>(edges_.size() - 1);
+  }
+  vertex_owner_.assign(at(nv), -1);
+  for (Index t = nt - 1; t >= 0; --t)
+    for (int k = 0; k < 3; ++k) vertex_owner_[at(triangles(t, k))] = t;
   return true;
 }
 
@@ -117,77 +152,90 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
   const Index nv = body.embedding.num_vertices();
   const Index nt = static_cast<Index>(body.surface_triangles.rows());
   const Triangles& tris = body.surface_triangles;
-  // Boxes of primitives whose vertices have boxes `box`, grown by `grow`.
-  auto primitive_boxes = [&](const std::vector<Box3>& box, double grow, std::vector<Box3>& v_out,
-                             std::vector<Box3>& t_out, std::vector<Box3>& e_out) {
-    v_out.resize(at(nv));
-    t_out.resize(at(nt));
-    e_out.resize(edges_.size());
-    for (Index v = 0; v < nv; ++v) v_out[at(v)] = grown(box[at(v)], grow);
-    for (Index t = 0; t < nt; ++t)
-      t_out[at(t)] = grown(Box3(box[at(tris(t, 0))]).extend(box[at(tris(t, 1))]).extend(box[at(tris(t, 2))]), grow);
-    for (std::size_t e = 0; e < edges_.size(); ++e)
-      e_out[e] = grown(Box3(box[at(edges_[e][0])]).extend(box[at(edges_[e][1])]), grow);
-  };
-  std::vector<Box3> swept(at(nv));
-  for (Index v = 0; v < nv; ++v) {
-    swept[at(v)].extend(xs0.row(v).transpose());
-    swept[at(v)].extend((xs0.row(v) + ds.row(v)).transpose());
-  }
-  primitive_boxes(swept, 0.5 * thickness, vertex_boxes_, triangle_boxes_, edge_boxes_);
 
   // Is the list still good? Every vertex, at the start and the end of the
-  // step, within its margin of its place at the build, after the surface's
-  // mean translation (which moves every pair alike). Then no pair missing
-  // from the list can come within the thickness in this step: their grown
-  // boxes, translated alike, stay apart.
+  // step, within its margin (each coordinate) of its place at the build,
+  // after the surface's mean translation, which moves every pair alike.
   const Eigen::RowVector3d mean_step = ds.colwise().mean();
+  drift_.resize(at(nv));
   if (list_valid_ && list_positions_.rows() == nv) {
     const Eigen::RowVector3d shift = (xs0 - list_positions_).colwise().mean();
     bool holds = true;
     for (Index v = 0; v < nv && holds; ++v) {
       const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v) - shift;
       const Eigen::RowVector3d end = start + ds.row(v) - mean_step;
-      holds = std::max(start.cwiseAbs().maxCoeff(), end.cwiseAbs().maxCoeff()) <= margin_[at(v)];
+      drift_[at(v)] = std::max(start.cwiseAbs().maxCoeff(), end.cwiseAbs().maxCoeff());
+      holds = drift_[at(v)] <= margin_[at(v)];
     }
     if (holds) return false;
   }
-  // A new list from static boxes, each vertex's grown by its own margin: a
-  // quarter of the mean edge, or twice this step's displacement relative to
-  // the mean, whichever is more (one margin for all, as large as the
-  // fastest vertex needed, built lists too long to sweep every step).
+  // A new list. Each vertex gets a margin: a quarter of the mean edge, or
+  // twice this step's displacement relative to the mean, whichever is more.
   double edge_length = 0.0;
   for (const auto& e : edges_) edge_length += (xs0.row(e[0]) - xs0.row(e[1])).norm();
   edge_length /= double(std::max<std::size_t>(1, edges_.size()));
   margin_.resize(at(nv));
-  std::vector<Box3> at_start(at(nv));
+  std::vector<Box3> vb(at(nv)), tb(at(nt)), eb(edges_.size());
   for (Index v = 0; v < nv; ++v) {
-    margin_[at(v)] = std::max(0.25 * edge_length, 2.0 * (ds.row(v) - mean_step).cwiseAbs().maxCoeff());
-    at_start[at(v)] = grown(Box3(xs0.row(v).transpose(), xs0.row(v).transpose()), margin_[at(v)]);
+    drift_[at(v)] = (ds.row(v) - mean_step).cwiseAbs().maxCoeff();
+    margin_[at(v)] = std::max(0.25 * edge_length, 2.0 * drift_[at(v)]);
+    vb[at(v)] = grown(Box3(xs0.row(v).transpose(), xs0.row(v).transpose()), margin_[at(v)] + 0.5 * thickness);
   }
-  std::vector<Box3> vb, tb, eb;
-  primitive_boxes(at_start, 0.5 * thickness, vb, tb, eb);
+  for (Index t = 0; t < nt; ++t) tb[at(t)] = Box3(vb[at(tris(t, 0))]).extend(vb[at(tris(t, 1))]).extend(vb[at(tris(t, 2))]);
+  for (std::size_t e = 0; e < edges_.size(); ++e) eb[e] = Box3(vb[at(edges_[e][0])]).extend(vb[at(edges_[e][1])]);
   list_positions_ = xs0;
   list_valid_ = true;
   ++stats.list_builds;
-  candidates_.clear();
-  for (const auto& [v, t] : overlapping_pairs(vb, tb)) {
-    const auto tri = tris.row(t);
-    if (tri[0] == v || tri[1] == v || tri[2] == v) continue;
-    candidates_.push_back({static_cast<std::uint8_t>(PairKind::vertex_triangle), {v, tri[0], tri[1], tri[2]}, {v, t}});
-  }
-  for (const auto& [a, b] : overlapping_pairs(eb)) {
-    const auto &ea = edges_[at(a)], &eb2 = edges_[at(b)];
-    if (ea[0] == eb2[0] || ea[0] == eb2[1] || ea[1] == eb2[0] || ea[1] == eb2[1]) continue;
-    candidates_.push_back({static_cast<std::uint8_t>(PairKind::edge_edge), {ea[0], ea[1], eb2[0], eb2[1]}, {a, b}});
-  }
-  return true;
-}
 
-bool SelfCollisions::boxes_meet(const Pair& p) const {
-  return p.kind == static_cast<std::uint8_t>(PairKind::vertex_triangle)
-             ? vertex_boxes_[at(p.primitives[0])].intersects(triangle_boxes_[at(p.primitives[1])])
-             : edge_boxes_[at(p.primitives[0])].intersects(edge_boxes_[at(p.primitives[1])]);
+  // One broad phase over the triangles: a vertex's box lies in the box of
+  // the triangle that owns it (its lowest), an edge's in its owner's, so
+  // each primitive pair is found under the pair of its owners, once. A pair
+  // is kept only if it can come within the thickness while the list holds:
+  // a point of a primitive moves at most √3 × its vertices' largest margin
+  // from where it was (after the common translation).
+  const std::vector<std::array<Index, 2>> triangle_pairs = overlapping_pairs(tb);
+  auto keep = [&](PairKind kind, const std::array<Index, 4>& v, double& distance) {
+    distance = ccd::closest(kind, gather(xs0, v)).distance;
+    return distance <= thickness + reach(kind, v, margin_);
+  };
+  const std::size_t grain = 4096;
+  std::vector<std::vector<Pair>> found((triangle_pairs.size() + grain - 1) / grain);
+  tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t chunk) {
+    auto& out = found[chunk];
+    for (std::size_t i = chunk * grain; i < std::min(triangle_pairs.size(), (chunk + 1) * grain); ++i) {
+      for (std::size_t side = 0; side < 2; ++side) {
+        const Index A = triangle_pairs[i][side], B = triangle_pairs[i][1 - side];
+        const auto tri = tris.row(B);
+        for (int k = 0; k < 3; ++k) {  // A's own vertices against B
+          const Index v = tris(A, k);
+          if (vertex_owner_[at(v)] != A || tri[0] == v || tri[1] == v || tri[2] == v || !vb[at(v)].intersects(tb[at(B)]))
+            continue;
+          const std::array<Index, 4> vertices{v, tri[0], tri[1], tri[2]};
+          double distance = 0.0;
+          if (keep(PairKind::vertex_triangle, vertices, distance))
+            out.push_back({static_cast<std::uint8_t>(PairKind::vertex_triangle), vertices, distance});
+        }
+      }
+      const Index A = triangle_pairs[i][0], B = triangle_pairs[i][1];
+      for (const Index e : triangle_edges_[at(A)]) {  // A's own edges against B's own
+        if (edge_owner_[at(e)] != A) continue;
+        const auto& ea = edges_[at(e)];
+        for (const Index f : triangle_edges_[at(B)]) {
+          if (edge_owner_[at(f)] != B) continue;
+          const auto& eb2 = edges_[at(f)];
+          if (ea[0] == eb2[0] || ea[0] == eb2[1] || ea[1] == eb2[0] || ea[1] == eb2[1]) continue;
+          if (!eb[at(e)].intersects(eb[at(f)])) continue;
+          const std::array<Index, 4> vertices{ea[0], ea[1], eb2[0], eb2[1]};
+          double distance = 0.0;
+          if (keep(PairKind::edge_edge, vertices, distance))
+            out.push_back({static_cast<std::uint8_t>(PairKind::edge_edge), vertices, distance});
+        }
+      }
+    }
+  });
+  candidates_.clear();
+  for (const auto& f : found) candidates_.insert(candidates_.end(), f.begin(), f.end());
+  return true;
 }
 
 std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, const Points& xs0, const Points& ds,
@@ -205,7 +253,9 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
                         if (only && !((*only)[at(p.vertices[0])] || (*only)[at(p.vertices[1])] ||
                                       (*only)[at(p.vertices[2])] || (*only)[at(p.vertices[3])]))
                           continue;
-                        if (!boxes_meet(p)) continue;
+                        // Still as far apart as the build found them, less what the
+                        // vertices have drifted since: beyond the thickness all step.
+                        if (p.distance - reach(static_cast<PairKind>(p.kind), p.vertices, drift_) > thickness) continue;
                         if (zone) {
                           const Index root = (*zone)[at(body.tets(body.embedding.parent[at(p.vertices[0])], 0))];
                           bool inside = true;
@@ -228,6 +278,11 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
     if (start[i] == 0.0 && !zone) ++stats.touching_at_start;
     if (toi[i] != kNone) impacts.push_back({i, toi[i]});
   }
+  // One order for the impulses, whatever the list's order: by pair.
+  std::sort(impacts.begin(), impacts.end(), [&](const Impact& a, const Impact& b) {
+    const Pair &p = candidates_[a.pair], &q = candidates_[b.pair];
+    return std::tie(p.kind, p.vertices) < std::tie(q.kind, q.vertices);
+  });
   return impacts;
 }
 
@@ -303,7 +358,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
       ccd::Points4 x = gather(xs0, p.vertices);
       const ccd::Points4 dx = gather(ds, p.vertices);
       for (std::size_t k = 0; k < 4; ++k) x[k] += impact.toi * dx[k];
-      if (apply_impulse(body, p, x, d, fixed, 0.0, parameters.friction)) ++stats.impacts;
+      if (apply_impulse(body, p, x, d, fixed, kSeparationFraction * thickness, parameters.friction)) ++stats.impacts;
     }
     // Measured again: pairs of a vertex whose element has a node that moved,
     // and the impacts' own (an impulse that could not act leaves its pair).

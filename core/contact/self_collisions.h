@@ -20,7 +20,7 @@
 namespace goo {
 
 struct SelfCollisionStats {
-  Index candidates = 0;         ///< pairs left by the broad phase, all rounds together
+  std::int64_t candidates = 0;  ///< pairs measured by the narrow phase, all rounds together
   Index repulsions = 0;         ///< impulses on pairs that started closer than the thickness
   Index impacts = 0;            ///< impulses on pairs that would have come closer during the step
   int rounds = 0;               ///< detection rounds with impulses
@@ -62,9 +62,9 @@ class SelfCollisions {
 
  private:
   struct Pair {
-    std::uint8_t kind;               // ccd::PairKind
-    std::array<Index, 4> vertices;   // surface vertices: vertex, triangle; or edge, edge
-    std::array<Index, 2> primitives; // (vertex, triangle) or (edge, edge) ids
+    std::uint8_t kind;              // ccd::PairKind
+    std::array<Index, 4> vertices;  // surface vertices: vertex, triangle; or edge, edge
+    double distance;                // at the list's build
   };
   struct Impact {
     std::size_t pair;
@@ -72,15 +72,13 @@ class SelfCollisions {
   };
   /// Returns whether the surface's topology changed (the edges are rebuilt).
   bool update_edges(const Triangles& triangles);
-  /// The swept boxes of this step, and the candidate pairs: a list built
-  /// with boxes grown by a margin is kept while every surface vertex stays
-  /// within the margin of where it was at the build (after the surface's
-  /// mean translation), so it holds every pair whose swept boxes overlap now.
+  /// The candidate pairs: a list built with each vertex's box grown by its
+  /// margin, of the pairs that can come within the thickness while every
+  /// vertex stays within its margin of where it was at the build (after the
+  /// surface's mean translation); kept while that holds.
   /// Returns whether the list was built anew.
   bool find_candidates(const Body& body, const Points& xs0, const Points& ds, double thickness,
                        SelfCollisionStats& stats);
-  /// Whether a candidate's swept boxes of this step overlap.
-  [[nodiscard]] bool boxes_meet(const Pair& pair) const;
   /// Impacts among the candidates: pairs that come within the thickness
   /// (or half their starting gap) while approaching. With `zone`, pairs whose
   /// nodes all lie in one rigid zone are skipped (their distances cannot
@@ -96,11 +94,14 @@ class SelfCollisions {
 
   Triangles triangles_;                      // the surface the edges below belong to
   std::vector<std::array<Index, 2>> edges_;  // unique surface edges, sorted
-  std::vector<Box3> vertex_boxes_, triangle_boxes_, edge_boxes_;  // swept this step, grown by half the thickness
+  std::vector<Index> edge_owner_;            // per edge, the lowest triangle holding it
+  std::vector<std::array<Index, 3>> triangle_edges_;  // per triangle, its edges (side k: corners k, k+1)
+  std::vector<Index> vertex_owner_;          // per vertex, the lowest triangle holding it
   std::vector<Pair> candidates_;
   std::vector<double> start_;  // per candidate, its distance at the step's start (−1: not measured)
   Points list_positions_;       // the surface where the candidate list was built
   std::vector<double> margin_;  // per vertex, how far it may move before the list is built again
+  std::vector<double> drift_;   // per vertex, how far it has moved since (this step's start and end, the larger)
   bool list_valid_ = false;
 };
 
