@@ -164,7 +164,8 @@ nlohmann::json to_json(const SelfCollisionStats& a, const SelfCollisionStats& b)
           {"zone_rounds", a.zone_rounds - b.zone_rounds},
           {"zone_nodes", a.zone_nodes - b.zone_nodes},
           {"touching_at_start", a.touching_at_start - b.touching_at_start},
-          {"broad_phases", a.list_builds - b.list_builds}};
+          {"broad_phases", a.list_builds - b.list_builds},
+          {"steps_waited", a.waited - b.waited}};
 }
 
 nlohmann::json to_json(const SurfaceQuality& q) {

@@ -324,6 +324,31 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   if (body.embedding.num_vertices() == 0 || body.surface_triangles.rows() == 0) return stats;
   const double thickness = parameters.thickness;
   if (update_edges(body.surface_triangles)) list_valid_ = false;
+  // A body with an element inverted at the start or the end of the step is
+  // turning inside-out material back: that passes the surface through
+  // itself (a body mirrored inside out turns right side out), so the stage
+  // waits, as a re-mesh does, until no element is inverted.
+  std::vector<std::uint8_t> inverted(at(body.num_elements()), 0);
+  tbb::parallel_for(tbb::blocked_range<Index>(0, body.num_elements(), kParallelGrain),
+                    [&](const tbb::blocked_range<Index>& r) {
+                      for (Index e = r.begin(); e != r.end(); ++e) {
+                        auto volume = [&](double t) {
+                          Eigen::Matrix3d D;
+                          const Index n0 = body.tets(e, 0);
+                          const Eigen::RowVector3d p0 = x0.row(n0) + t * d.row(n0);
+                          for (int k = 1; k < 4; ++k) {
+                            const Index n = body.tets(e, k);
+                            D.col(k - 1) = (x0.row(n) + t * d.row(n) - p0).transpose();
+                          }
+                          return D.determinant();
+                        };
+                        inverted[at(e)] = (volume(0.0) <= 0.0 || volume(1.0) <= 0.0) ? 1 : 0;
+                      }
+                    });
+  if (std::find(inverted.begin(), inverted.end(), 1) != inverted.end()) {
+    stats.waited = 1;
+    return stats;
+  }
   const Points xs0 = body.embedding.surface_positions(body.tets, x0);
   Points ds = body.embedding.surface_positions(body.tets, d);  // W d: the surface's displacements
   find_candidates(body, xs0, ds, thickness, stats);

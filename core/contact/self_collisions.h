@@ -28,11 +28,12 @@ struct SelfCollisionStats {
   Index zone_nodes = 0;         ///< nodes moved rigidly by the fail-safe
   Index touching_at_start = 0;  ///< pairs at distance 0 when the step began (left alone)
   Index list_builds = 0;        ///< broad phases run (a candidate list is kept while it holds)
+  Index waited = 0;             ///< steps left alone: an element was inverted
 
   SelfCollisionStats& operator+=(const SelfCollisionStats& o) {
     candidates += o.candidates, repulsions += o.repulsions, impacts += o.impacts, rounds += o.rounds;
     zone_rounds += o.zone_rounds, zone_nodes += o.zone_nodes, touching_at_start += o.touching_at_start;
-    list_builds += o.list_builds;
+    list_builds += o.list_builds, waited += o.waited;
     return *this;
   }
 };
