@@ -25,6 +25,11 @@ constexpr int kMaxZoneRounds = 64;
 // step, not merely at rest: other impulses of the round then rarely turn it
 // back into an approach.
 constexpr double kSeparationFraction = 0.1;
+// Continuous detection reports a pair within twice its minimum distance
+// (ccd.h); the list and the per-step bound keep every pair that can come
+// that close, so what is reported never depends on when the list was built
+// (a resumed run, which builds it anew, goes on bit for bit).
+constexpr double kReported = 2.0;
 
 /// The nodes a pair's relative point depends on, with coefficients c_i:
 /// it moves by Σ c_i d_i. At most 4 vertices × 4 nodes.
@@ -193,13 +198,13 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
   // One broad phase over the triangles: a vertex's box lies in the box of
   // the triangle that owns it (its lowest), an edge's in its owner's, so
   // each primitive pair is found under the pair of its owners, once. A pair
-  // is kept only if it can come within the thickness while the list holds:
+  // is kept only if it can come within twice the thickness while the list holds:
   // a point of a primitive moves at most √3 × its vertices' largest margin
   // from where it was (after the common translation).
   const std::vector<std::array<Index, 2>> triangle_pairs = overlapping_pairs(tb);
   auto keep = [&](PairKind kind, const std::array<Index, 4>& v, double& distance) {
     distance = ccd::closest(kind, gather(xs0, v)).distance;
-    return distance <= thickness + reach(kind, v, margin_);
+    return distance <= kReported * thickness + reach(kind, v, margin_);
   };
   const std::size_t grain = 4096;
   std::vector<std::vector<Pair>> found((triangle_pairs.size() + grain - 1) / grain);
@@ -257,8 +262,10 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
                                       (*only)[at(p.vertices[2])] || (*only)[at(p.vertices[3])]))
                           continue;
                         // Still as far apart as the build found them, less what the
-                        // vertices have drifted since: beyond the thickness all step.
-                        if (p.distance - reach(static_cast<PairKind>(p.kind), p.vertices, drift_) > thickness) continue;
+                        // vertices have drifted since: beyond twice the thickness all
+                        // step, where continuous detection reports nothing.
+                        if (p.distance - reach(static_cast<PairKind>(p.kind), p.vertices, drift_) > kReported * thickness)
+                          continue;
                         if (zone) {
                           const Index root = (*zone)[at(body.tets(body.embedding.parent[at(p.vertices[0])], 0))];
                           bool inside = true;
