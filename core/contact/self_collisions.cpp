@@ -187,7 +187,10 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
   for (Index v = 0; v < nv; ++v) {
     drift_[at(v)] = (ds.row(v) - mean_step).cwiseAbs().maxCoeff();
     margin_[at(v)] = std::max(0.1 * edge_length, 4.0 * drift_[at(v)]);
-    vb[at(v)] = grown(Box3(xs0.row(v).transpose(), xs0.row(v).transpose()), margin_[at(v)] + 0.5 * thickness);
+    // Grown by half the reporting distance too: boxes that stay apart keep
+    // their primitives more than 2δ apart while the list holds.
+    vb[at(v)] = grown(Box3(xs0.row(v).transpose(), xs0.row(v).transpose()),
+                      margin_[at(v)] + 0.5 * kReported * thickness);
   }
   for (Index t = 0; t < nt; ++t) tb[at(t)] = Box3(vb[at(tris(t, 0))]).extend(vb[at(tris(t, 1))]).extend(vb[at(tris(t, 2))]);
   for (std::size_t e = 0; e < edges_.size(); ++e) eb[e] = Box3(vb[at(edges_[e][0])]).extend(vb[at(edges_[e][1])]);
