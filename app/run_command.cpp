@@ -78,7 +78,7 @@ nlohmann::json step_stages(const StepTimes& a, const StepTimes& b) {
   return {{"forces", a.forces - b.forces},           {"damping", a.damping - b.damping},
           {"hessian", a.hessian - b.hessian},        {"linear_solve", a.linear_solve - b.linear_solve},
           {"collisions", a.collisions - b.collisions}, {"self_collisions", a.self_collisions - b.self_collisions},
-          {"surface", a.surface - b.surface},
+          {"volume", a.volume - b.volume},             {"surface", a.surface - b.surface},
           {"other", a.other - b.other}};
 }
 
@@ -166,6 +166,14 @@ nlohmann::json to_json(const SelfCollisionStats& a, const SelfCollisionStats& b)
           {"touching_at_start", a.touching_at_start - b.touching_at_start},
           {"broad_phases", a.list_builds - b.list_builds},
           {"steps_waited", a.waited - b.waited}};
+}
+
+nlohmann::json to_json(const VolumeProjectionStats& v) {
+  return {{"newton_iterations", v.newton_iterations},
+          {"cg_iterations", v.cg_iterations},
+          {"max_error_before", v.error_before},
+          {"max_error", v.error},
+          {"steps_waited", v.waited}};
 }
 
 nlohmann::json to_json(const SurfaceQuality& q) {
@@ -361,6 +369,7 @@ int run_scene(const RunOptions& options) {
                           {"surface_quality", outputs.quality_seconds - quality_before}}},
                         {"surface", to_json(outputs.quality)},
                         {"self_collisions", to_json(sim.self_collision_totals(), self_before)},
+                        {"volume_projection", to_json(sim.take_frame_volume_stats())},
                         {"integrate_stages", step_stages(st.step, stages_before.step)},
                         {"remesh_stages", remesh_stages(st.remesh_stages, stages_before.remesh_stages)}};
     stages_before = st;
@@ -459,6 +468,7 @@ int run_scene(const RunOptions& options) {
   j["stepping_peak_memory_bytes"] = stepping_peak_bytes;
   j["initial_surface"] = initial_surface;
   j["self_collisions"] = to_json(sim.self_collision_totals(), SelfCollisionStats{});
+  j["volume_projection"] = to_json(sim.volume_totals());
   j["per_frame"] = per_frame;
   const std::string text = j.dump(2) + "\n";
   io::write_file_atomically(folder / "summary.json", [&](std::ostream& out) { out << text; });

@@ -37,6 +37,10 @@ struct Body {
   std::vector<Eigen::Matrix3d> Fp;      ///< #E plastic deformation
   Eigen::VectorXd alpha;                ///< #E accumulated hardening, Pa
   Eigen::VectorXd rest_condition;       ///< #E condition number of Dm at creation
+  /// #E fraction of each element the material fills, in [0, 1] (the
+  /// embedded surface moves with the elements, so it holds until the next
+  /// re-mesh). Empty: every element full (a tetrahedral body).
+  Eigen::VectorXd solid_fractions;
 
   NodeIncidence incidence;
   /// The stress-free volume of the material, Σ W det Fp over the solid, m³:

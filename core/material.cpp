@@ -81,6 +81,7 @@ Material material_preset(std::string_view name) {
     m.viscosity = p.viscosity;
     m.yield_stress = p.yield_stress;
     m.flow_rate = p.flow_rate;
+    m.incompressible = true;
     return m;
   }
   throw Error(fmt::format("unknown material preset '{}' (expected one of {})", name,

@@ -29,6 +29,9 @@ struct Material {
   double min_mass_fraction = 0.0;  ///< m_min as a fraction of a full node's mass (W&T sec. 6)
   double surface_tension = 0.0;    ///< σ, N/m, on the embedded surface (W&T sec. 7)
   ElasticModel model = ElasticModel::fixed_corotated;
+  /// Every node keeps its rest volume (core/volume_projection.h; Irving et
+  /// al. 2007): the elasticity then acts on shape alone, whatever ν_P.
+  bool incompressible = false;
 
   /// Lamé parameters: μ = E / (2(1+ν)), λ = E ν / ((1+ν)(1−2ν)).
   [[nodiscard]] double mu() const { return youngs_modulus / (2.0 * (1.0 + poisson_ratio)); }
@@ -45,7 +48,8 @@ void validate(const Material& material, std::string_view where = "material", cha
 
 /// The five behaviours of W&T figure 3, as named presets (our values: the
 /// paper gives its parameters only in a figure). Density 1000 kg/m³,
-/// Poisson 0.3, fixed corotated elasticity:
+/// Poisson 0.3, fixed corotated elasticity, incompressible (all five are
+/// water-based gels and fluids or rubber: docs/physics.md):
 /// | preset          | E (Pa) | β (Pa·s) | PY (Pa) | ν (1/s) |
 /// | rigid_brick     | 1e6    | 20       | ∞       | 0       |
 /// | viscous_ooze    | 1e4    | 100      | 5       | 50      |

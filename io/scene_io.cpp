@@ -302,6 +302,7 @@ Material read_material(Node n) {
   optional(n, "model", m.model, [](const Node& v) {
     return elastic_model_from_string(v.choice({"neo_hookean", "fixed_corotated", "stable_neo_hookean"}));
   });
+  optional(n, "incompressible", m.incompressible, [](const Node& v) { return v.boolean(); });
   n.finish();
   validate(m, n.path(), '/');
   return m;

@@ -66,7 +66,10 @@ BackwardEulerIntegrator::BackwardEulerIntegrator(BackwardEulerSettings settings,
 
 BackwardEulerIntegrator::~BackwardEulerIntegrator() = default;
 
-void BackwardEulerIntegrator::invalidate() { factor_->factored_for = -1; }
+void BackwardEulerIntegrator::invalidate() {
+  factor_->factored_for = -1;
+  volume_.reset();
+}
 
 int BackwardEulerIntegrator::symbolic_factorisations() const { return factor_->symbolic; }
 
@@ -99,9 +102,17 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
   const Points xn = body.positions, vn = body.velocities;
   const double t_next = time_ + dt;
 
-  // Inertia target and the constrained nodes' positions at t_next.
+  // Inertia target and the constrained nodes' positions at t_next; an
+  // incompressible material's carried pressure force joins gravity as a
+  // load constant over the step.
   Points target = xn + dt * vn;
   target.rowwise() += dt * dt * settings_.gravity.transpose();
+  if (body.material.incompressible) {
+    Points pressure = Points::Zero(nn, 3);
+    volume_.add_pressure_forces(body, xn, pressure);
+    for (Index n = 0; n < nn; ++n)
+      if (m[n] > 0.0) target.row(n) += (dt * dt / m[n]) * pressure.row(n);
+  }
   Points x = target;
   for (const Index n : constraints_.pinned) x.row(n) = xn.row(n);
   for (const auto& motion : constraints_.prescribed)
@@ -161,8 +172,15 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
   double inertia = 0.0;
   for (Index n = 0; n < nn; ++n)
     if (!fixed_[at(n)]) inertia = std::max(inertia, m[n] * body.velocities.row(n).norm() / dt);
+  double driven = 0.0;
+  if (!constraints_.prescribed.empty()) {
+    // Nodes moved along a path load the body at the first guess: a body at
+    // rest without gravity, pulled by its faces, has no other force.
+    forces(x, scratch);
+    driven = max_abs_free(scratch, fixed_);
+  }
   const double scale =
-      std::max({m.maxCoeff() * settings_.gravity.norm(), max_abs_free(f, fixed_), inertia, 1e-300});
+      std::max({m.maxCoeff() * settings_.gravity.norm(), max_abs_free(f, fixed_), inertia, driven, 1e-300});
 
   times_.forces += timer.lap();
   if (!hessian_.matches(body.tets, nn, surface_nodes.nodes)) hessian_.build(body.tets, nn, surface_nodes.nodes);
@@ -305,6 +323,10 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
   }
   status.halvings = halvings;
   StageTimer timer;
+  // Incompressible materials: xⁿ⁺¹ and vⁿ⁺¹ projected so that every node
+  // keeps its volume (Irving et al. 2007).
+  if (body.material.incompressible) status.volume = volume_.project(body, x0, fixed_, dt, dt);
+  times_.volume += timer.lap();
   // Smoothing (W&T sec. 7, as Newmark's), plastic flow after convergence,
   // then the ground and the surface.
   if (settings_.smoothing > 0.0 && EmbeddedTension::active(body))
@@ -315,8 +337,10 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
   status.plastic_elements = elastic_.plastic_elements();
   times_.forces += timer.lap();
   const double t_next = time_ + dt;
+  const Points before_contact = body.material.incompressible ? body.positions : Points();
   if (constraints_.ground) enforce_ground(body, *constraints_.ground, fixed_);
   status.collisions += collisions_.resolve_positions(body, constraints_.obstacles, t_next, fixed_).resolved;
+  if (body.material.incompressible) status.volume += volume_.restore_after_contact(body, before_contact, fixed_, dt);
   status.collisions +=
       collisions_.resolve_velocities(body, body.velocities, constraints_.obstacles, t_next, dt, fixed_).resolved;
   times_.collisions += timer.lap();

@@ -17,6 +17,7 @@
 #include "core/constraints.h"
 #include "core/elastic_forces.h"
 #include "core/settings.h"
+#include "core/volume_projection.h"
 #include "solvers/embedded_tension.h"
 #include "solvers/sparse_hessian.h"
 #include "solvers/stepping.h"
@@ -38,6 +39,7 @@ struct NewtonStatus {
   Index plastic_elements = 0;
   Index collisions = 0;
   SelfCollisionStats self_collisions;  ///< the surface against itself
+  VolumeProjectionStats volume;        ///< incompressible materials
   StepTimes times;  ///< wall seconds by stage, all attempts
 };
 
@@ -74,6 +76,7 @@ class BackwardEulerIntegrator {
   SparseHessian hessian_;
   SurfaceCollisions collisions_;
   SelfCollisions self_collisions_;
+  VolumeProjection volume_;
   EmbeddedTension tension_;
   struct Factor;
   std::unique_ptr<Factor> factor_;

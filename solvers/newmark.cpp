@@ -52,6 +52,7 @@ void NewmarkIntegrator::evaluate_forces(Body& body, double plastic_dt) {
   StageTimer timer;
   elastic_.evaluate(body, body.positions, plastic_dt, forces_);
   times_.forces += timer.lap();
+  if (body.material.incompressible) volume_.add_pressure_forces(body, body.positions, forces_);
   if (!has_tension(body)) return;
   // W&T sec. 7: forces on the fine surface, to the nodes with b_i (a
   // quantity: algorithms.md, "Embedding"). In vertex order: deterministic.
@@ -171,15 +172,23 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
 
   // 2. xⁿ⁺¹ = xⁿ + Δt v½; the surface smoothed and re-embedded (W&T
   // sec. 7, fig. 8); then the ground and the position collisions.
-  const Points x_start = constraints_.self_collisions ? body.positions : Points();
+  const bool incompressible = body.material.incompressible;
+  const Points x_start = constraints_.self_collisions || incompressible ? body.positions : Points();
   body.positions += dt * body.velocities;
   times_.other += timer.lap();
+  // Incompressible materials: x and v½ projected so that every node keeps
+  // its volume (Irving et al. 2007), before the contacts have their say.
+  if (incompressible) status.volume = volume_.project(body, x_start, constrained_, dt, h);
+  times_.volume += timer.lap();
   if (has_tension(body) && settings_.smoothing > 0.0)
     tension_.smooth(body, std::min(0.5, settings_.smoothing * body.material.surface_tension * dt));
   times_.surface += timer.lap();
+  const Points before_contact = incompressible ? body.positions : Points();
   status.ground_contacts = enforce_ground(body);
   status.collisions += collisions_.resolve_positions(body, obstacles, t_next, constrained_).resolved;
   times_.collisions += timer.lap();
+  if (incompressible) status.volume += volume_.restore_after_contact(body, before_contact, constrained_, dt);
+  times_.volume += timer.lap();
   // The surface against itself over the whole move, obstacles' corrections
   // included; the impulses change v½ too (Bridson et al. 2002).
   if (constraints_.self_collisions)
@@ -206,6 +215,8 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
   times_.other += timer.lap();
   solve_damped(body, h, rhs, body.velocities, status);
   times_.damping += timer.lap();
+  if (incompressible) status.volume += volume_.project_velocities(body, constrained_, dt, h, forces_);
+  times_.volume += timer.lap();
   enforce_ground(body);
   // vⁿ⁺¹ must not drive the surface into an obstacle over the next step.
   status.collisions += collisions_.resolve_velocities(body, body.velocities, obstacles, t_next, dt, constrained_).resolved;

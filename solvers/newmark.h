@@ -10,6 +10,7 @@
 #include "core/elastic_forces.h"
 #include "core/settings.h"
 #include "core/surface_tension.h"
+#include "core/volume_projection.h"
 #include "solvers/embedded_tension.h"
 #include "solvers/stepping.h"
 
@@ -25,6 +26,7 @@ struct StepStatus {
   Index ground_contacts = 0;
   Index collisions = 0;  ///< element corrections of the embedded surface, positions and velocities
   SelfCollisionStats self_collisions;  ///< the surface against itself
+  VolumeProjectionStats volume;        ///< incompressible materials
   StepTimes times;       ///< wall seconds by stage
 };
 
@@ -43,7 +45,10 @@ class NewmarkIntegrator {
   [[nodiscard]] double time() const { return time_; }
   void set_time(double t) { time_ = t; }
   /// Forget cached forces (after the body's mesh or state changed outside).
-  void invalidate() { have_forces_ = false; }
+  void invalidate() {
+    have_forces_ = false;
+    volume_.reset();
+  }
 
   /// The time step the next step would take if unlimited by max_dt.
   double stable_time_step(Body& body);
@@ -65,6 +70,7 @@ class NewmarkIntegrator {
   Damping damping_;
   SurfaceCollisions collisions_;
   SelfCollisions self_collisions_;
+  VolumeProjection volume_;
   EmbeddedTension tension_;
   Points forces_;  // f_e at the current positions
   StepTimes times_;  // this step's, by stage

@@ -63,6 +63,11 @@ Totals totals(const Eigen::VectorXd& m, const Points& x, const Points& v) {
   return t;
 }
 
+/// φ_e = V_solid / W_e of a fresh lattice (positions = rest), in [0, 1].
+Eigen::VectorXd solid_fractions(const ElementSolid& solid, const Eigen::VectorXd& rest_volumes) {
+  return (solid.volume.array() / rest_volumes.array()).max(0.0).min(1.0).matrix();
+}
+
 }  // namespace
 
 MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, double h) {
@@ -70,6 +75,7 @@ MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, doub
   out.body = body_on_lattice(out.lattice_mesh, material);
   const ElementSolid solid = clip_solid_to_elements(out.lattice_mesh, surface);
   out.body.rest_material_volume = solid.volume.sum();
+  out.body.solid_fractions = solid_fractions(solid, out.body.rest_volumes);
   out.body.masses = exact_node_masses(out.lattice_mesh, solid, material.density, {}, material.min_mass_fraction);
   out.body.surface_triangles = surface.triangles;
   out.body.embedding = embed(out.lattice_mesh, surface.vertices);
@@ -129,6 +135,7 @@ MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, Remesh
     det_Fe[at(e)] = Fe.determinant();
   }
   body.alpha = state.alpha;
+  body.solid_fractions = solid_fractions(solid, body.rest_volumes);
 
   // Exact masses of the transferred state, clamped.
   body.masses = exact_node_masses(lm, solid, old.material.density, det_Fe, old.material.min_mass_fraction);

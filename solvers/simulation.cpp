@@ -241,12 +241,16 @@ void Simulation::step_body(std::size_t i, double max_dt) {
     last_dt_ = status.dt;
     times_.step += status.times;
     self_collisions_ += status.self_collisions;
+    volume_total_ += status.volume;
+    volume_frame_ += status.volume;
   } else {
     try {
       const NewtonStatus status = s.backward_euler->step(b.body, max_dt);
       last_dt_ = status.dt;
       times_.step += status.times;
       self_collisions_ += status.self_collisions;
+      volume_total_ += status.volume;
+      volume_frame_ += status.volume;
     } catch (const Error& e) {  // Newton failed even at the smallest Δt: not bad input
       throw NumericalFailure(fmt::format("numerical failure at step {} (t = {:.6g} s): body '{}': {}; try a smaller "
                                          "backward_euler.time_step or more max_newton_iterations",
@@ -401,6 +405,7 @@ void Simulation::save(StateSink& r) const {
     r.put(p + "Fp", body.Fp);
     r.put_vector(p + "alpha", body.alpha);
     r.put_vector(p + "rest_condition", body.rest_condition);
+    if (body.solid_fractions.size() > 0) r.put_vector(p + "solid_fractions", body.solid_fractions);
     r.put(p + "surface_triangles", body.surface_triangles);
     r.put(p + "embedding_parent", body.embedding.parent);
     r.put_matrix(p + "embedding_bary", body.embedding.bary);
@@ -436,6 +441,7 @@ void Simulation::load(const StateRecord& r) {
     body.Fp = r.matrices3(p + "Fp");
     body.alpha = r.vector(p + "alpha");
     body.rest_condition = r.vector(p + "rest_condition");
+    if (r.has(p + "solid_fractions")) body.solid_fractions = r.vector(p + "solid_fractions");
     body.surface_triangles = r.triangles(p + "surface_triangles");
     body.embedding.parent = r.indices(p + "embedding_parent");
     body.embedding.bary = r.matrix(p + "embedding_bary", 4);
@@ -446,7 +452,8 @@ void Simulation::load(const StateRecord& r) {
     const auto nv = static_cast<Eigen::Index>(body.embedding.parent.size());
     const bool sizes = body.rest_positions.rows() == nn && body.velocities.rows() == nn && body.masses.size() == nn &&
                        std::ssize(body.Dm_inv) == ne && body.rest_volumes.size() == ne && std::ssize(body.Fp) == ne &&
-                       body.alpha.size() == ne && body.rest_condition.size() == ne && body.embedding.bary.rows() == nv;
+                       body.alpha.size() == ne && body.rest_condition.size() == ne &&
+                       (body.solid_fractions.size() == 0 || body.solid_fractions.size() == ne) && body.embedding.bary.rows() == nv;
     const bool ids = (ne == 0 || (body.tets.minCoeff() >= 0 && body.tets.maxCoeff() < nn)) &&
                      (body.surface_triangles.rows() == 0 ||
                       (body.surface_triangles.minCoeff() >= 0 && body.surface_triangles.maxCoeff() < nv)) &&

@@ -6,11 +6,13 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/body.h"
 #include "core/scene.h"
 #include "core/state_record.h"
+#include "core/volume_projection.h"
 #include "solvers/remesh.h"
 #include "solvers/stepping.h"
 
@@ -92,6 +94,10 @@ class Simulation {
   [[nodiscard]] const StageTimes& stage_times() const { return times_; }
   /// What the self-collision stages did, all bodies and steps together.
   [[nodiscard]] const SelfCollisionStats& self_collision_totals() const { return self_collisions_; }
+  /// The incompressibility projections of the whole run, and those since the
+  /// last call of take_frame_volume_stats (which resets them).
+  [[nodiscard]] const VolumeProjectionStats& volume_totals() const { return volume_total_; }
+  VolumeProjectionStats take_frame_volume_stats() { return std::exchange(volume_frame_, VolumeProjectionStats{}); }
   [[nodiscard]] const std::vector<SimulationBody>& bodies() const { return bodies_; }
   [[nodiscard]] SimulationTotals totals() const;
   /// Every body's surface at the current positions, in one mesh (body order).
@@ -113,6 +119,7 @@ class Simulation {
   std::int64_t steps_ = 0;
   std::int64_t remeshes_ = 0;
   SelfCollisionStats self_collisions_;
+  VolumeProjectionStats volume_total_, volume_frame_;
   StageTimes times_;
 };
 

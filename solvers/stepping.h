@@ -14,12 +14,14 @@ struct StepTimes {
   double linear_solve = 0.0;  ///< backward Euler: factorisations, solves, conjugate gradients
   double collisions = 0.0;    ///< the ground and the obstacles
   double self_collisions = 0.0;  ///< the embedded surface against itself
+  double volume = 0.0;        ///< the incompressibility projection
   double surface = 0.0;       ///< surface tension forces, smoothing and re-embedding
   double other = 0.0;         ///< the time-step choice, updates
 
   StepTimes& operator+=(const StepTimes& o) {
     forces += o.forces, damping += o.damping, hessian += o.hessian, linear_solve += o.linear_solve;
-    collisions += o.collisions, self_collisions += o.self_collisions, surface += o.surface, other += o.other;
+    collisions += o.collisions, self_collisions += o.self_collisions, volume += o.volume, surface += o.surface;
+    other += o.other;
     return *this;
   }
 };

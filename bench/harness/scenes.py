@@ -8,7 +8,7 @@ import os
 from common import goo_run, log, plt, save_figure, table, write_csv, write_json
 
 # The finest split goo reports: the integrator's stages, the re-mesh's stages, and the rest.
-STEP = ["forces", "damping", "hessian", "linear_solve", "collisions", "self_collisions", "surface", "other"]
+STEP = ["forces", "damping", "hessian", "linear_solve", "collisions", "self_collisions", "volume", "surface", "other"]
 REMESH = ["upkeep", "lattice", "transfer", "masses", "conservation"]
 REST = ["remesh_check", "safety_checks", "frames_output", "surface_quality"]
 

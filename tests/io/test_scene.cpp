@@ -91,6 +91,22 @@ TEST(Scene, IntegratorAndItsSettingsAreChosenPerScene) {
   EXPECT_EQ(t.newmark.smoothing, 0.5);
 }
 
+TEST(Scene, PresetsAreIncompressibleAndTheKeySwitchesItPerObject) {
+  for (const std::string& name : material_preset_names()) EXPECT_TRUE(material_preset(name).incompressible) << name;
+  EXPECT_FALSE(Material{}.incompressible);  // a material given only by its constants is not
+  const auto cube_with = [](const std::string& material) {
+    return with_object(fmt::format(
+        R"({{"primitive": {{"type": "box", "size": [0.2, 0.2, 0.2]}}, "material": {}, "lattice_spacing": 0.05}})",
+        material));
+  };
+  EXPECT_TRUE(parse(cube_with(R"("splashing_fluid")")).objects[0].material.incompressible);
+  EXPECT_FALSE(parse(cube_with(R"({"preset": "splashing_fluid", "incompressible": false})")).objects[0].material.incompressible);
+  EXPECT_TRUE(parse(cube_with(R"({"youngs_modulus": 1e4, "incompressible": true})")).objects[0].material.incompressible);
+  EXPECT_FALSE(parse(cube_with(R"({"youngs_modulus": 1e4})")).objects[0].material.incompressible);
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(cube_with(R"({"incompressible": 1})")); },
+                                            "/objects/0/material/incompressible must be true or false"));
+}
+
 TEST(Scene, SelfCollisionsAreOnUnlessSwitchedOff) {
   const auto cube_with = [](const std::string& value) {
     return with_object(fmt::format(

@@ -1,0 +1,429 @@
+#include "core/volume_projection.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <utility>
+
+#include "core/elastic_forces.h"
+#include "core/parallel.h"
+#include "core/surface_geometry.h"
+
+namespace goo {
+namespace {
+
+template <class F>
+void for_each_index(Index count, F&& f) {
+  tbb::parallel_for(tbb::blocked_range<Index>(0, count, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index i = r.begin(); i != r.end(); ++i) f(i);
+  });
+}
+
+/// out_i = ¼ Σ_{e∋i} per_element_e, in the incidence's fixed order.
+void quarter_node_sums(const NodeIncidence& incidence, const Eigen::VectorXd& per_element, Eigen::VectorXd& out) {
+  const auto nn = static_cast<Index>(incidence.offsets.size() - 1);
+  out.resize(nn);
+  for_each_index(nn, [&](Index n) {
+    double sum = 0.0;
+    for (Index c = incidence.offsets[at(n)]; c < incidence.offsets[at(n) + 1]; ++c)
+      sum += per_element[incidence.corners[at(c)] / 4];
+    out[n] = 0.25 * sum;
+  });
+}
+
+/// ∂V/∂x of a tetrahedron's four corners (columns), and V = det(Ds) / 6.
+double volume_gradient(const Eigen::Vector3d& x0, const Eigen::Vector3d& x1, const Eigen::Vector3d& x2,
+                       const Eigen::Vector3d& x3, Matrix34& g) {
+  const Eigen::Vector3d d1 = x1 - x0, d2 = x2 - x0, d3 = x3 - x0;
+  g.col(1) = d2.cross(d3) / 6.0;
+  g.col(2) = d3.cross(d1) / 6.0;
+  g.col(3) = d1.cross(d2) / 6.0;
+  g.col(0) = -(g.col(1) + g.col(2) + g.col(3));
+  return d1.dot(g.col(1));
+}
+
+double max_relative(const Eigen::VectorXd& error, const Eigen::VectorXd& rest, const std::vector<std::uint8_t>* active) {
+  double worst = 0.0;
+  for (Index n = 0; n < error.size(); ++n) {
+    if (active && !(*active)[at(n)]) continue;
+    if (rest[n] > 0.0) worst = std::max(worst, std::abs(error[n]) / rest[n]);
+  }
+  return worst;
+}
+
+
+/// True if an element of `body` is inverted or flat at positions x.
+bool any_inverted(const Body& body, const Points& x) {
+  for (Index e = 0; e < body.num_elements(); ++e) {
+    const Eigen::Vector3d x0 = x.row(body.tets(e, 0)).transpose();
+    const Eigen::Matrix3d Ds = (Eigen::Matrix3d() << x.row(body.tets(e, 1)) - x0.transpose(),
+                                x.row(body.tets(e, 2)) - x0.transpose(), x.row(body.tets(e, 3)) - x0.transpose())
+                                   .finished()
+                                   .transpose();
+    if (!(Ds.determinant() > 0.0)) return true;
+  }
+  return false;
+}
+
+/// An element below this fraction of its rest volume is not constrained.
+constexpr double kCrushed = 0.1;
+/// The most of a node's volume the drift correction restores in one step.
+constexpr double kMaxDrift = 0.1;
+/// Iterations with G at xⁿ before the projection turns to Newton's method.
+constexpr int kChordIterations = 6;
+
+}  // namespace
+
+VolumeProjectionStats& VolumeProjectionStats::operator+=(const VolumeProjectionStats& o) {
+  newton_iterations += o.newton_iterations;
+  waited += o.waited;
+  cg_iterations += o.cg_iterations;
+  error_before = std::max(error_before, o.error_before);
+  error = std::max(error, o.error);
+  return *this;
+}
+
+VolumeProjection::VolumeProjection(VolumeProjectionSettings settings) : settings_(settings) {}
+
+void VolumeProjection::gradients(const Body& body, const Points& start) {
+  const Index ne = body.num_elements();
+  gradient_.resize(at(ne));
+  for_each_index(ne, [&](Index e) {
+    const auto x = [&](int k) { return Eigen::Vector3d(start.row(body.tets(e, k)).transpose()); };
+    volume_gradient(x(0), x(1), x(2), x(3), gradient_[at(e)]);
+  });
+}
+
+void VolumeProjection::volumes(const Body& body, const Points& positions) {
+  const Index ne = body.num_elements();
+  volume_.resize(ne);
+  for_each_index(ne, [&](Index e) {
+    Matrix34 unused;
+    const auto x = [&](int k) { return Eigen::Vector3d(positions.row(body.tets(e, k)).transpose()); };
+    volume_[e] = volume_gradient(x(0), x(1), x(2), x(3), unused);
+  });
+}
+
+// (G M⁻¹ Gᵀ) λ without forming the matrix: per element Λ_e = ¼ Σ_k λ_{n_k};
+// y = M⁻¹ Σ_e Λ_e ∂V_e/∂x (node sums in the incidence order); then
+// s_e = Σ_k ∂V_e/∂x_k · y_{n_k} and (Aλ)_i = ¼ Σ_{e∋i} s_e.
+void VolumeProjection::transpose_product(const Body& body, const Eigen::VectorXd& lambda, Points& out) {
+  const Index ne = body.num_elements();
+  weighted_.resize(at(ne));
+  for_each_index(ne, [&](Index e) {
+    double s = 0.0;
+    for (int k = 0; k < 4; ++k) s += lambda[body.tets(e, k)];
+    weighted_[at(e)] = 0.25 * s * gradient_[at(e)];
+  });
+  gather_to_nodes(body.incidence, weighted_, out);
+}
+
+void VolumeProjection::move(const Body& body, const Eigen::VectorXd& lambda) {
+  transpose_product(body, lambda, direction_);
+  for_each_index(body.num_nodes(), [&](Index n) { direction_.row(n) *= inverse_mass_[n]; });
+}
+
+void VolumeProjection::add_pressure_forces(const Body& body, const Points& x, Points& forces) {
+  if (pressure_.size() != body.num_nodes()) return;
+  gradients(body, x);
+  transpose_product(body, pressure_, transposed_);
+  forces -= transposed_;
+}
+
+void VolumeProjection::carry(const Body& body, const Eigen::VectorXd& lambda, double scale) {
+  if (pressure_.size() != body.num_nodes()) pressure_ = Eigen::VectorXd::Zero(body.num_nodes());
+  pressure_ += scale * lambda;
+}
+
+void VolumeProjection::apply(const Body& body, const Eigen::VectorXd& lambda, Eigen::VectorXd& out) {
+  move(body, lambda);
+  const Index ne = body.num_elements();
+  element_sum_.resize(ne);
+  for_each_index(ne, [&](Index e) {
+    double s = 0.0;
+    for (int k = 0; k < 4; ++k) s += gradient_[at(e)].col(k).dot(direction_.row(body.tets(e, k)).transpose());
+    element_sum_[e] = s;
+  });
+  quarter_node_sums(body.incidence, element_sum_, out);
+  for (Index n = 0; n < out.size(); ++n)
+    if (!active_[at(n)]) out[n] = 0.0;
+}
+
+void VolumeProjection::prepare(const Body& body, const Points& at_positions, const std::vector<std::uint8_t>& fixed) {
+  const Index ne = body.num_elements(), nn = body.num_nodes();
+  gradients(body, at_positions);
+  inverse_mass_.resize(nn);
+  for (Index n = 0; n < nn; ++n) {
+    const bool is_fixed = at(n) < fixed.size() && fixed[at(n)];
+    inverse_mass_[n] = !is_fixed && body.masses[n] > 0.0 ? 1.0 / body.masses[n] : 0.0;
+  }
+  // An element whose nodes are all fixed cannot change its volume: it is
+  // left out of the constraints (its error would make them inconsistent).
+  // An inverted or crushed element (V_e below a tenth of its rest volume
+  // where G is taken) is left to the elasticity: pulling it back through
+  // or from near zero volume in one step would throw its nodes across the
+  // mesh.
+  movable_.assign(at(ne), 0);
+  rest_.resize(ne);
+  for_each_index(ne, [&](Index e) {
+    const Matrix34& g = gradient_[at(e)];
+    const Eigen::Vector3d x0 = at_positions.row(body.tets(e, 0)).transpose();
+    const double V = (Eigen::Vector3d(at_positions.row(body.tets(e, 1)).transpose()) - x0).dot(g.col(1));
+    bool movable = false;
+    for (int k = 0; k < 4; ++k) movable = movable || inverse_mass_[body.tets(e, k)] > 0.0;
+    movable = movable && V > kCrushed * body.rest_volumes[e] * body.Fp[at(e)].determinant();
+    movable_[at(e)] = movable ? 1 : 0;
+    rest_[e] = movable ? body.rest_volumes[e] * body.Fp[at(e)].determinant() : 0.0;
+  });
+  quarter_node_sums(body.incidence, rest_, node_rest_);
+  // A_ii = Σ_j |G_ij|² / m_j with G_ij = ¼ Σ_{e∋i,j} ∂V_e/∂x_j, gathered per
+  // node over its elements' corners: the Jacobi preconditioner. A node is
+  // constrained where its row is not zero up to round-off (Σ_e |¼ ∂V_e/∂x_j|²
+  // / m_j is the scale).
+  active_.assign(at(nn), 0);
+  diagonal_.resize(nn);
+  for_each_index(nn, [&](Index i) {
+    std::array<std::pair<Index, Eigen::Vector3d>, 64> local;
+    std::size_t used = 0;
+    double scale = 0.0;
+    bool overflow = false;
+    for (Index c = body.incidence.offsets[at(i)]; c < body.incidence.offsets[at(i) + 1]; ++c) {
+      const Index e = body.incidence.corners[at(c)] / 4;
+      for (int k = 0; k < 4; ++k) {
+        const Index j = body.tets(e, k);
+        const Eigen::Vector3d g = 0.25 * gradient_[at(e)].col(k);
+        scale += g.squaredNorm() * inverse_mass_[j];
+        std::size_t slot = 0;
+        while (slot < used && local[slot].first != j) ++slot;
+        if (slot == used) {
+          if (used == local.size()) {
+            overflow = true;
+            continue;
+          }
+          local[used++] = {j, Eigen::Vector3d::Zero()};
+        }
+        local[slot].second += g;
+      }
+    }
+    double a = 0.0;
+    for (std::size_t k = 0; k < used; ++k) a += local[k].second.squaredNorm() * inverse_mass_[local[k].first];
+    if (overflow) a = scale;  // more than 63 neighbours: a bound, still positive
+    const bool on = a > 1e-10 * scale && node_rest_[i] > 0.0;
+    active_[at(i)] = on ? 1 : 0;
+    diagonal_[i] = on ? a : 1.0;
+  });
+}
+
+int VolumeProjection::solve(const Body& body, const Eigen::VectorXd& rhs, double target, Eigen::VectorXd& lambda) {
+  const Index nn = body.num_nodes();
+  for (Index n = 0; n < nn; ++n)
+    if (!active_[at(n)]) lambda[n] = 0.0;
+  apply(body, lambda, Ap_);
+  r_ = rhs - Ap_;
+  for (Index n = 0; n < nn; ++n)
+    if (!active_[at(n)]) r_[n] = 0.0;
+  // Stops when every node's residual is below target × V̄_i, or where the
+  // residual stops falling (ε-small pivots of a singular system); the best
+  // iterate wins.
+  z_ = r_.cwiseQuotient(diagonal_);
+  p_ = z_;
+  double rz = r_.dot(z_);
+  double residual = max_relative(r_, node_rest_, nullptr), best = residual;
+  best_ = lambda;
+  int iteration = 0;
+  while (residual > target && iteration < settings_.max_cg_iterations && residual < 1e3 * best) {
+    apply(body, p_, Ap_);
+    const double pAp = p_.dot(Ap_);
+    if (!(pAp > 0.0)) break;
+    const double alpha = rz / pAp;
+    lambda += alpha * p_;
+    r_ -= alpha * Ap_;
+    z_ = r_.cwiseQuotient(diagonal_);
+    const double rz_next = r_.dot(z_);
+    p_ = z_ + (rz_next / rz) * p_;
+    rz = rz_next;
+    ++iteration;
+    residual = max_relative(r_, node_rest_, nullptr);
+    if (residual < best) {
+      best = residual;
+      best_ = lambda;
+    }
+  }
+  lambda = best_;
+  last_residual_ = best;
+  return iteration;
+}
+
+double VolumeProjection::surface_target_scale(const Body& body) {
+  const Index ne = body.num_elements();
+  if (body.surface_triangles.rows() == 0 || !(body.rest_material_volume > 0.0) ||
+      body.solid_fractions.size() != ne)
+    return 1.0;
+  // V_s(x) − Σ φ_e V_e(x): what the surface encloses beyond the material
+  // the elements hold (its triangles are straight across element faces,
+  // where the elements' map bends); it changes slowly with the shape.
+  volumes(body, body.positions);
+  CompensatedSum material, rest;
+  for (Index e = 0; e < ne; ++e) {
+    material.add(body.solid_fractions[e] * volume_[e]);
+    rest.add(body.solid_fractions[e] * body.rest_volumes[e] * body.Fp[at(e)].determinant());
+  }
+  const double enclosed = surface_integrals(body.surface()).volume;
+  const double scale = (body.rest_material_volume - enclosed + material.value()) / rest.value();
+  return std::isfinite(scale) ? std::clamp(scale, 0.9, 1.1) : 1.0;
+}
+
+VolumeProjectionStats VolumeProjection::project(Body& body, const Points& start, const std::vector<std::uint8_t>& fixed,
+                                               double dt, double span) {
+  VolumeProjectionStats stats;
+  const Index ne = body.num_elements(), nn = body.num_nodes();
+  if (ne == 0 || !(dt > 0.0)) return stats;
+  if (any_inverted(body, start)) {
+    // An inverted element's volume is no constraint to hold: the
+    // elasticity turns the body right side out first (as the self-collision
+    // stage waits).
+    if (span > 0.0) scale_ = 1.0;
+    stats.waited = 1;
+    return stats;
+  }
+  // The restoration after contacts keeps the step's scale.
+  const double scale = span > 0.0 ? (scale_ = surface_target_scale(body)) : scale_;
+  prepare(body, start, fixed);
+  if (scale != 1.0) rest_ *= scale;
+  lambda_ = Eigen::VectorXd::Zero(nn);
+  if (span > 0.0) {
+    // What the nodes had lost or gained before the step (contacts, the
+    // surface against itself, a re-mesh, elements turning back from
+    // inversion) is no motion of this step: it is corrected in the
+    // positions alone. Only the error the step's motion made becomes
+    // velocity and carried pressure, so a drift never turns into speed
+    // (Δx/Δt at a tiny Δt) or winds the pressure up.
+    volumes(body, start);
+    for (Index e = 0; e < ne; ++e) volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0;
+    quarter_node_sums(body.incidence, volume_, error_);
+    if (max_relative(error_, node_rest_, &active_) > settings_.tolerance) {
+      // At most kMaxDrift of a node's volume per step: a large drift (an
+      // element just turned back from inversion) is recovered over steps.
+      for (Index n = 0; n < nn; ++n)
+        error_[n] = std::clamp(error_[n], -kMaxDrift * node_rest_[n], kMaxDrift * node_rest_[n]);
+      stats.cg_iterations += solve(body, error_, 0.25 * settings_.tolerance, lambda_);
+      if (lambda_.allFinite()) {
+        move(body, lambda_);
+        body.positions -= direction_;
+      }
+    }
+  }
+  Eigen::VectorXd total = Eigen::VectorXd::Zero(nn);
+  double last_error = 0.0;
+  for (int newton = 0;; ++newton) {
+    volumes(body, body.positions);
+    for (Index e = 0; e < ne; ++e) volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0;
+    quarter_node_sums(body.incidence, volume_, error_);
+    const double error = max_relative(error_, node_rest_, &active_);
+    if (newton == 0) stats.error_before = error;
+    if (newton > 0 && !(error < last_error || error <= settings_.tolerance)) {
+      // The last correction did not help (an inconsistent or ill-posed
+      // system): it is undone, and the projection stops where it was best.
+      body.positions += direction_;
+      body.velocities += direction_ / dt;
+      total -= lambda_;
+      stats.error = last_error;
+      break;
+    }
+    stats.error = last_error = error;
+    if (error <= settings_.tolerance || newton == settings_.max_newton_iterations) break;
+    stats.newton_iterations = newton + 1;
+    if (newton == kChordIterations) {
+      // Still far after the chord iterations (a large step): Newton's
+      // method from here, G at the current positions (the impulses then
+      // exert a torque about xⁿ of the order of the correction).
+      prepare(body, body.positions, fixed);
+      if (scale != 1.0) rest_ *= scale;
+    }
+    // A δ = V(x) − V̄ over the constrained nodes, then x ← x − M⁻¹ Gᵀ δ and
+    // v ← v − M⁻¹ Gᵀ δ / Δt.
+    lambda_.setZero();
+    stats.cg_iterations += solve(body, error_, 0.25 * settings_.tolerance, lambda_);
+    if (!lambda_.allFinite()) break;
+    move(body, lambda_);
+    body.positions -= direction_;
+    body.velocities -= direction_ / dt;
+    total += lambda_;
+  }
+  // The impulse −Gᵀλ / Δt, as a force over the integrator's span, joins
+  // the pressure force that later steps apply.
+  if (stats.newton_iterations > 0 && span > 0.0) carry(body, total, 1.0 / (dt * span));
+  return stats;
+}
+
+VolumeProjectionStats VolumeProjection::project_velocities(Body& body, const std::vector<std::uint8_t>& fixed,
+                                                          double dt, double span, Points& forces) {
+  VolumeProjectionStats stats;
+  const Index ne = body.num_elements(), nn = body.num_nodes();
+  if (ne == 0 || !(dt > 0.0)) return stats;
+  if (any_inverted(body, body.positions)) {
+    stats.waited = 1;
+    return stats;
+  }
+  prepare(body, body.positions, fixed);
+  // The volume rates dV_i/dt = ¼ Σ_{e∋i} Σ_k ∂V_e/∂x_k · v_k, as a volume
+  // change over one step, so that the tolerance means what it means above.
+  element_sum_.resize(ne);
+  for_each_index(ne, [&](Index e) {
+    double s = 0.0;
+    for (int k = 0; k < 4; ++k) s += gradient_[at(e)].col(k).dot(body.velocities.row(body.tets(e, k)).transpose());
+    element_sum_[e] = movable_[at(e)] ? dt * s : 0.0;
+  });
+  quarter_node_sums(body.incidence, element_sum_, error_);
+  for (Index n = 0; n < nn; ++n)
+    if (!active_[at(n)]) error_[n] = 0.0;
+  stats.error_before = stats.error = max_relative(error_, node_rest_, nullptr);
+  if (stats.error <= settings_.tolerance) return stats;
+  stats.newton_iterations = 1;
+  lambda_ = Eigen::VectorXd::Zero(nn);
+  stats.cg_iterations = solve(body, error_, 0.25 * settings_.tolerance, lambda_);
+  if (!lambda_.allFinite()) return stats;
+  transpose_product(body, lambda_, transposed_);
+  for (Index n = 0; n < nn; ++n) body.velocities.row(n) -= (inverse_mass_[n] / dt) * transposed_.row(n);
+  carry(body, lambda_, 1.0 / (dt * span));
+  forces -= transposed_ / (dt * span);
+  stats.error = last_residual_;
+  return stats;
+}
+
+VolumeProjectionStats VolumeProjection::restore_after_contact(Body& body, const Points& before,
+                                                             const std::vector<std::uint8_t>& fixed, double dt) {
+  const Index nn = body.num_nodes();
+  touched_.assign(at(nn), 0);
+  bool any = false;
+  for (Index n = 0; n < nn; ++n) {
+    const bool moved = body.positions.row(n) != before.row(n);
+    touched_[at(n)] = (at(n) < fixed.size() && fixed[at(n)]) || moved ? 1 : 0;
+    any = any || moved;
+  }
+  if (!any) return {};
+  const Points here = body.positions, velocities = body.velocities;
+  const VolumeProjectionStats stats = project(body, here, touched_, dt, 0.0);
+  body.velocities = velocities;
+  return stats;
+}
+
+double max_nodal_volume_error(const Body& body, const Points& x) {
+  const Index ne = body.num_elements();
+  Eigen::VectorXd difference(ne), whole(ne);
+  for_each_index(ne, [&](Index e) {
+    Matrix34 g;
+    const auto p = [&](int k) { return Eigen::Vector3d(x.row(body.tets(e, k)).transpose()); };
+    whole[e] = body.rest_volumes[e] * body.Fp[at(e)].determinant();
+    difference[e] = volume_gradient(p(0), p(1), p(2), p(3), g) - whole[e];
+  });
+  Eigen::VectorXd error, node_whole;
+  quarter_node_sums(body.incidence, difference, error);
+  quarter_node_sums(body.incidence, whole, node_whole);
+  return max_relative(error, node_whole, nullptr);
+}
+
+}  // namespace goo

@@ -1,0 +1,138 @@
+#pragma once
+// Incompressibility by projection (Irving, Schroeder & Fedkiw 2007,
+// "Volume conserving finite element simulations of deformable models",
+// sec. 4; docs/physics.md, "Incompressible materials"). Each node owns a
+// quarter of its elements' volumes,
+//   V_i(x) = ¼ Σ_{e∋i} V_e(x),  V_e = det(Ds) / 6,
+// and must keep its stress-free share V̄_i = ¼ Σ_{e∋i} W_e det Fp_e (plastic
+// flow is isochoric, so V̄ never changes between re-meshes). After a step's
+// positions x are known, they move by
+//   Δx = −M⁻¹ Gᵀ λ,  (G M⁻¹ Gᵀ) λ = V(x) − V̄,  G = ∂V/∂x at xⁿ,
+// (a pressure impulse λ / Δt on each node; Δv = Δx / Δt), solved by
+// Jacobi-preconditioned conjugate gradients, matrix-free, repeated while the
+// non-linear constraint is not met (a chord method: G stays the one at the
+// step's start, about which each element's impulses exert no torque, so the
+// projection conserves linear and angular momentum exactly). One constraint
+// per node rather than per element keeps linear tetrahedra from locking.
+// The targets are the rest volumes themselves, not the last step's, scaled
+// so that the embedded surface encloses the material's own volume (mass
+// over density): errors never accumulate.
+#include <cstdint>
+#include <vector>
+
+#include "core/body.h"
+#include "core/elastic_forces.h"
+#include "core/types.h"
+
+namespace goo {
+
+struct VolumeProjectionSettings {
+  /// A node is done when |V_i − V̄_i| ≤ tolerance × ¼ Σ_{e∋i} W_e det Fp_e
+  /// (its whole elements' share, filled or not).
+  double tolerance = 1e-5;
+  int max_newton_iterations = 10;
+  int max_cg_iterations = 500;
+};
+
+/// What one projection did.
+struct VolumeProjectionStats {
+  int newton_iterations = 0;
+  int cg_iterations = 0;
+  double error_before = 0.0;  ///< max_i |V_i − V̄_i| / V̄_i at the positions given
+  double error = 0.0;         ///< the same after the projection
+  int waited = 0;             ///< projections skipped while an element was inverted
+
+  VolumeProjectionStats& operator+=(const VolumeProjectionStats& o);
+};
+
+class VolumeProjection {
+ public:
+  explicit VolumeProjection(VolumeProjectionSettings settings = {});
+
+  /// forces −= Gᵀ(x) π: the force of the nodal pressures π carried from
+  /// the last steps (nothing after reset() or for another mesh). G at the
+  /// current x: the force exerts no net force or torque.
+  void add_pressure_forces(const Body& body, const Points& x, Points& forces);
+
+  /// Forget the carried pressures: after this the results depend on the
+  /// body's state alone (a restart point).
+  void reset() {
+    pressure_.resize(0);
+    scale_ = 1.0;
+  }
+
+  /// body.positions are the end of a step of length dt taken from `start`
+  /// (xⁿ) with body.velocities: both are corrected (x += Δx, v += Δx / dt)
+  /// so that every node keeps its volume. The correction's impulse −Gᵀλ/Δt,
+  /// read as a force acting over `span` (the integrator's kick: Δt/2 for
+  /// Newmark, Δt for backward Euler), joins the carried pressures π += λ /
+  /// (Δt span), which the next steps apply (add_pressure_forces) as a
+  /// prediction: under a steady load they balance the load, the projection
+  /// only corrects what changed, and viscosity never acts on the motion the
+  /// projection takes away. What the nodes had lost or gained before the
+  /// step (x at `start` off its targets: contacts, a re-mesh, elements
+  /// turning back from inversion) is corrected in the positions alone, at
+  /// most a tenth of a node's volume per step, and is not carried.
+  /// Nodes with `fixed` set do not move, and nodes all of whose neighbours
+  /// are fixed have no constraint. While an element is inverted at `start`
+  /// nothing is done (stats.waited): the elasticity turns it back first. The impulses of each element sum to zero
+  /// and exert no torque about xⁿ (V_e is invariant under translation and
+  /// rotation): with xⁿ⁺¹ = xⁿ + Δt v, linear and angular momentum are
+  /// unchanged.
+  VolumeProjectionStats project(Body& body, const Points& start, const std::vector<std::uint8_t>& fixed, double dt,
+                                double span);
+
+  /// After contacts moved some nodes (positions differ from `before`): the
+  /// volume they took or gave is restored by the other nodes (those moved
+  /// are held, so no contact is undone), v with it. Nothing is carried: a
+  /// contact's reaction is not a pressure of the next step. Counts as a
+  /// projection in the stats.
+  VolumeProjectionStats restore_after_contact(Body& body, const Points& before, const std::vector<std::uint8_t>& fixed,
+                                              double dt);
+
+  /// The second half of RATTLE (Andersen 1983) for a kick–drift–kick step:
+  /// the end-of-step velocities lose their component that changes any nodal
+  /// volume, v ← v − M⁻¹ Gᵀ μ / Δt with (G M⁻¹ Gᵀ) μ = Δt G v, G at the
+  /// current positions; μ / (Δt span) joins the carried pressures and its
+  /// force −Gᵀμ / (Δt span) `forces` (those the next kick applies).
+  VolumeProjectionStats project_velocities(Body& body, const std::vector<std::uint8_t>& fixed, double dt, double span,
+                                           Points& forces);
+
+ private:
+  /// G at `at_positions`, the inverse masses, the elements that can move,
+  /// the nodes' rest volumes, which nodes are constrained, the preconditioner.
+  void prepare(const Body& body, const Points& at_positions, const std::vector<std::uint8_t>& fixed);
+  /// Preconditioned CG on A λ = rhs from λ's value; returns the iterations.
+  int solve(const Body& body, const Eigen::VectorXd& rhs, double target, Eigen::VectorXd& lambda);
+  /// s with which every target V̄_i is scaled so that the embedded surface
+  /// encloses the material's own volume (Body::rest_material_volume, mass
+  /// over density) after the projection: s = (V_material − V_s(x) + Σ φ_e
+  /// V_e(x)) / Σ φ_e V̄_e. 1 for a body without a surface or fractions.
+  double surface_target_scale(const Body& body);
+  void gradients(const Body& body, const Points& start);
+  void volumes(const Body& body, const Points& positions);
+  /// out = Gᵀ λ (#N×3): Σ_e (¼ Σ_k λ_{n_k}) ∂V_e/∂x, in the incidence order.
+  void transpose_product(const Body& body, const Eigen::VectorXd& lambda, Points& out);
+  void apply(const Body& body, const Eigen::VectorXd& lambda, Eigen::VectorXd& out);
+  void move(const Body& body, const Eigen::VectorXd& lambda);
+  /// The carried pressures += scale × λ (sized to the body first).
+  void carry(const Body& body, const Eigen::VectorXd& lambda, double scale);
+
+  VolumeProjectionSettings settings_;
+  // Work arrays, kept across steps.
+  std::vector<Matrix34> gradient_;  ///< ∂V_e/∂x of each element's four nodes
+  std::vector<Matrix34> weighted_;  ///< Λ_e ∂V_e/∂x
+  Eigen::VectorXd volume_, rest_, element_sum_, inverse_mass_, node_rest_, diagonal_;
+  Eigen::VectorXd error_, r_, z_, p_, Ap_, lambda_, best_;
+  std::vector<std::uint8_t> active_, movable_, touched_;
+  Points direction_, transposed_;
+  Eigen::VectorXd pressure_;  ///< π, the carried nodal pressures, Pa
+  double last_residual_ = 0.0;
+  double scale_ = 1.0;  ///< this step's surface_target_scale
+};
+
+/// max_i |V_i(x) − V̄_i| / (¼ Σ_{e∋i} W_e det Fp_e) over the nodes of
+/// `body` (the measure the projection drives below its tolerance).
+double max_nodal_volume_error(const Body& body, const Points& x);
+
+}  // namespace goo

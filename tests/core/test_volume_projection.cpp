@@ -1,0 +1,160 @@
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <random>
+
+#include "core/body.h"
+#include "core/volume_projection.h"
+#include "tests/common/test_common.h"
+
+namespace goo {
+namespace {
+
+/// A 0.2 m box of 4³ cells (384 tets) whose nodes were moved at random by
+/// up to `amplitude` × the cell size, and given a spin and a random velocity:
+/// a step's end whose nodal volumes are off by up to ~`amplitude`.
+struct Perturbed {
+  Body body;
+  Points start;
+};
+
+Perturbed perturbed_box(double amplitude, unsigned seed) {
+  Material m;
+  m.incompressible = true;
+  Perturbed out{make_body(make_box_tets(Eigen::Vector3d::Constant(0.2), Eigen::Vector3i::Constant(4)), m), {}};
+  Body& body = out.body;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const double cell = 0.05;
+  const Eigen::Vector3d omega(2.0, -1.0, 3.0);
+  for (Index n = 0; n < body.num_nodes(); ++n)
+    body.velocities.row(n) =
+        (omega.cross(Eigen::Vector3d(body.positions.row(n))) + 0.3 * Eigen::Vector3d(u(rng), u(rng), u(rng)))
+            .transpose();
+  out.start = body.positions;
+  const double dt = 1e-3;
+  for (Index n = 0; n < body.num_nodes(); ++n) {
+    const Eigen::Vector3d d(u(rng), u(rng), u(rng));
+    body.velocities.row(n) += (amplitude * cell / dt) * d.transpose();
+  }
+  body.positions = out.start + dt * body.velocities;
+  return out;
+}
+
+TEST(VolumeProjection, RestoresEveryNodalVolumeToTheTolerance) {
+  for (const double amplitude : {0.01, 0.05, 0.15}) {
+    Perturbed p = perturbed_box(amplitude, 3);
+    const double before = max_nodal_volume_error(p.body, p.body.positions);
+    EXPECT_GT(before, 0.5 * amplitude) << "the test must start far from the constraint";
+    VolumeProjection projection;
+    const VolumeProjectionStats stats = projection.project(p.body, p.start, {}, 1e-3, 1e-3);
+    EXPECT_DOUBLE_EQ(stats.error_before, before);
+    const double after = max_nodal_volume_error(p.body, p.body.positions);
+    EXPECT_LE(after, VolumeProjectionSettings{}.tolerance) << "amplitude " << amplitude;
+    EXPECT_DOUBLE_EQ(stats.error, after);
+    EXPECT_GE(stats.newton_iterations, 1);
+  }
+}
+
+TEST(VolumeProjection, ConservesLinearAndAngularMomentumAndMovesPositionsWithVelocities) {
+  Perturbed p = perturbed_box(0.05, 5);
+  const double dt = 1e-3;
+  // L = Σ m xⁿ⁺¹ × v = Σ m xⁿ × v when xⁿ⁺¹ = xⁿ + Δt v: measured about xⁿ.
+  auto angular = [&](const Body& b) {
+    Eigen::Vector3d L = Eigen::Vector3d::Zero();
+    for (Index n = 0; n < b.num_nodes(); ++n)
+      L += b.masses[n] * Eigen::Vector3d(p.start.row(n)).cross(Eigen::Vector3d(b.velocities.row(n)));
+    return L;
+  };
+  const Eigen::Vector3d P0 = linear_momentum(p.body), L0 = angular(p.body);
+  VolumeProjection projection;
+  projection.project(p.body, p.start, {}, dt, dt);
+  const double mass = p.body.masses.sum(), speed = p.body.velocities.rowwise().norm().maxCoeff();
+  // Each element's impulses sum to zero and have no moment about xⁿ; the
+  // sums' round-off is a few ulps of the largest term (m |v|, m |x||v|).
+  EXPECT_TRUE(test::matrices_near(linear_momentum(p.body), P0, 1e-12 * mass * speed));
+  EXPECT_TRUE(test::matrices_near(angular(p.body), L0, 1e-12 * mass * 0.4 * speed));
+  // The step stays consistent: xⁿ⁺¹ = xⁿ + Δt vⁿ⁺¹.
+  EXPECT_TRUE(test::matrices_near(p.body.positions, p.start + dt * p.body.velocities, 1e-14));
+}
+
+TEST(VolumeProjection, FixedNodesDoNotMoveAndAFullyFixedNeighbourhoodHasNoConstraint) {
+  Perturbed p = perturbed_box(0.05, 7);
+  std::vector<std::uint8_t> fixed(static_cast<std::size_t>(p.body.num_nodes()), 0);
+  // Every node on the x = 0 face and the layer behind it.
+  for (Index n = 0; n < p.body.num_nodes(); ++n)
+    if (p.body.rest_positions(n, 0) < 0.06) fixed[static_cast<std::size_t>(n)] = 1;
+  const Points before = p.body.positions;
+  VolumeProjection projection;
+  const VolumeProjectionStats stats = projection.project(p.body, p.start, fixed, 1e-3, 1e-3);
+  for (Index n = 0; n < p.body.num_nodes(); ++n)
+    if (fixed[static_cast<std::size_t>(n)]) {
+      EXPECT_TRUE(p.body.positions.row(n) == before.row(n)) << "node " << n;
+    }
+  // The x = 0 face's nodes touch only fixed nodes: they keep their error;
+  // every other node meets the tolerance.
+  EXPECT_LE(stats.error, VolumeProjectionSettings{}.tolerance);
+  EXPECT_GT(max_nodal_volume_error(p.body, p.body.positions), VolumeProjectionSettings{}.tolerance);
+}
+
+TEST(VolumeProjection, ThePressureForceItCarriesIsTheImpulseItAppliedReadAsAForce) {
+  // The force −Gᵀλ / (Δt span) over `span` is the impulse M Δv the
+  // projection gave. Newmark's kick is Δt/2, backward Euler's Δt.
+  for (const double span : {0.5e-3, 1e-3}) {
+    Perturbed p = perturbed_box(0.05, 11);
+    const Points v0 = p.body.velocities;
+    VolumeProjection projection;
+    projection.project(p.body, p.start, {}, 1e-3, span);
+    Points force = Points::Zero(p.body.num_nodes(), 3);
+    projection.add_pressure_forces(p.body, p.start, force);
+    Points impulse = p.body.velocities - v0;
+    for (Index n = 0; n < p.body.num_nodes(); ++n) impulse.row(n) *= p.body.masses[n];
+    EXPECT_TRUE(test::matrices_near(impulse, span * force, 1e-12 * impulse.cwiseAbs().maxCoeff()));
+    projection.reset();
+    Points none = Points::Zero(p.body.num_nodes(), 3);
+    projection.add_pressure_forces(p.body, p.start, none);
+    EXPECT_EQ(none.cwiseAbs().maxCoeff(), 0.0);
+  }
+}
+
+TEST(VolumeProjection, VelocitiesLoseEveryVolumeChangingComponent) {
+  Perturbed p = perturbed_box(0.0, 13);  // at rest shape, moving
+  for (Index n = 0; n < p.body.num_nodes(); ++n) p.body.velocities.row(n) *= 1.0 + 0.5 * p.body.rest_positions(n, 0);
+  p.body.positions = p.start;
+  Points forces = Points::Zero(p.body.num_nodes(), 3);
+  VolumeProjection projection;
+  const double dt = 1e-3;
+  const VolumeProjectionStats stats = projection.project_velocities(p.body, {}, dt, 0.5 * dt, forces);
+  EXPECT_GT(stats.error_before, 100.0 * VolumeProjectionSettings{}.tolerance);
+  // A step along the projected velocities changes no nodal volume to first
+  // order: Δt G v below the tolerance (the second order is (Δt |∇v|)²).
+  const double rate = p.body.velocities.rowwise().norm().maxCoeff() / 0.05;
+  EXPECT_LE(max_nodal_volume_error(p.body, p.start + dt * p.body.velocities),
+            VolumeProjectionSettings{}.tolerance + 10.0 * (dt * rate) * (dt * rate));
+  EXPECT_LE(stats.error, 0.25 * VolumeProjectionSettings{}.tolerance);
+  // The forces of the next kick carry the same impulse.
+  EXPECT_GT(forces.cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(VolumeProjection, BitwiseIdenticalWithOneAndTwoThreads) {
+  Points result[2];
+  for (int threads = 1; threads <= 2; ++threads) {
+    tbb::global_control control(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    // Large enough that the loops split (more than one grain of elements).
+    Material m;
+    m.incompressible = true;
+    Body body = make_body(make_box_tets(Eigen::Vector3d::Constant(0.2), Eigen::Vector3i::Constant(8)), m);
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    const Points start = body.positions;
+    for (Index n = 0; n < body.num_nodes(); ++n) body.velocities.row(n) << u(rng), u(rng), u(rng);
+    body.positions = start + 1e-3 * body.velocities;
+    VolumeProjection projection;
+    projection.project(body, start, {}, 1e-3, 1e-3);
+    result[threads - 1] = body.positions;
+  }
+  EXPECT_TRUE(result[0] == result[1]);
+}
+
+}  // namespace
+}  // namespace goo
