@@ -8,6 +8,10 @@
 
 namespace goo {
 
+/// An incompressible material's nodes keep their volume to this fraction
+/// (core/volume_projection.h).
+inline constexpr double kVolumeTolerance = 1e-4;
+
 struct NewmarkSettings {
   Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  ///< m/s²
   double cfl = 0.5;                                            ///< fraction of the elastic stability limit
@@ -21,6 +25,8 @@ struct NewmarkSettings {
   /// (capped at ½), so the smoothing per unit time does not depend on Δt.
   /// Units 1/(N/m · s); 0 turns it off.
   double smoothing = 0.0;
+  /// Incompressible materials: |V_i − V̄_i| ≤ this × V̄_i after each step.
+  double volume_tolerance = kVolumeTolerance;
 };
 
 /// How each Newton system is solved.
@@ -53,6 +59,8 @@ struct BackwardEulerSettings {
   /// NewmarkSettings::smoothing. Surface tension itself is always the
   /// area-gradient form here: it is part of the minimised energy.
   double smoothing = 0.0;
+  /// Incompressible materials: as NewmarkSettings::volume_tolerance.
+  double volume_tolerance = kVolumeTolerance;
 };
 
 /// Self-collisions of a body's embedded surface (docs/embedded-surface.md,

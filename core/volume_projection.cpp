@@ -285,12 +285,10 @@ VolumeProjectionStats VolumeProjection::project(Body& body, const Points& start,
     // An inverted element's volume is no constraint to hold: the
     // elasticity turns the body right side out first (as the self-collision
     // stage waits).
-    if (span > 0.0) scale_ = 1.0;
     stats.waited = 1;
     return stats;
   }
-  // The restoration after contacts keeps the step's scale.
-  const double scale = span > 0.0 ? (scale_ = surface_target_scale(body)) : scale_;
+  const double scale = span > 0.0 ? surface_target_scale(body) : 1.0;
   prepare(body, start, fixed);
   if (scale != 1.0) rest_ *= scale;
   lambda_ = Eigen::VectorXd::Zero(nn);
@@ -304,12 +302,14 @@ VolumeProjectionStats VolumeProjection::project(Body& body, const Points& start,
     volumes(body, start);
     for (Index e = 0; e < ne; ++e) volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0;
     quarter_node_sums(body.incidence, volume_, error_);
-    if (max_relative(error_, node_rest_, &active_) > settings_.tolerance) {
+    const double drift = max_relative(error_, node_rest_, &active_);
+    if (drift > settings_.tolerance) {
       // At most kMaxDrift of a node's volume per step: a large drift (an
       // element just turned back from inversion) is recovered over steps.
       for (Index n = 0; n < nn; ++n)
         error_[n] = std::clamp(error_[n], -kMaxDrift * node_rest_[n], kMaxDrift * node_rest_[n]);
-      stats.cg_iterations += solve(body, error_, 0.25 * settings_.tolerance, lambda_);
+      // Inexact: a tenth of the drift is left for the iterations below.
+      stats.cg_iterations += solve(body, error_, std::max(0.25 * settings_.tolerance, 0.1 * drift), lambda_);
       if (lambda_.allFinite()) {
         move(body, lambda_);
         body.positions -= direction_;
@@ -346,7 +346,10 @@ VolumeProjectionStats VolumeProjection::project(Body& body, const Points& start,
     // A δ = V(x) − V̄ over the constrained nodes, then x ← x − M⁻¹ Gᵀ δ and
     // v ← v − M⁻¹ Gᵀ δ / Δt.
     lambda_.setZero();
-    stats.cg_iterations += solve(body, error_, 0.25 * settings_.tolerance, lambda_);
+    // Inexact Newton: each solve only as accurate as the iteration needs
+    // (a tenth of the error it starts from), the last to a quarter of the
+    // tolerance.
+    stats.cg_iterations += solve(body, error_, std::max(0.25 * settings_.tolerance, 0.1 * error), lambda_);
     if (!lambda_.allFinite()) break;
     move(body, lambda_);
     body.positions -= direction_;
@@ -391,23 +394,6 @@ VolumeProjectionStats VolumeProjection::project_velocities(Body& body, const std
   carry(body, lambda_, 1.0 / (dt * span));
   forces -= transposed_ / (dt * span);
   stats.error = last_residual_;
-  return stats;
-}
-
-VolumeProjectionStats VolumeProjection::restore_after_contact(Body& body, const Points& before,
-                                                             const std::vector<std::uint8_t>& fixed, double dt) {
-  const Index nn = body.num_nodes();
-  touched_.assign(at(nn), 0);
-  bool any = false;
-  for (Index n = 0; n < nn; ++n) {
-    const bool moved = body.positions.row(n) != before.row(n);
-    touched_[at(n)] = (at(n) < fixed.size() && fixed[at(n)]) || moved ? 1 : 0;
-    any = any || moved;
-  }
-  if (!any) return {};
-  const Points here = body.positions, velocities = body.velocities;
-  const VolumeProjectionStats stats = project(body, here, touched_, dt, 0.0);
-  body.velocities = velocities;
   return stats;
 }
 

@@ -22,6 +22,7 @@
 
 #include "core/body.h"
 #include "core/elastic_forces.h"
+#include "core/settings.h"
 #include "core/types.h"
 
 namespace goo {
@@ -29,7 +30,7 @@ namespace goo {
 struct VolumeProjectionSettings {
   /// A node is done when |V_i − V̄_i| ≤ tolerance × ¼ Σ_{e∋i} W_e det Fp_e
   /// (its whole elements' share, filled or not).
-  double tolerance = 1e-5;
+  double tolerance = kVolumeTolerance;
   int max_newton_iterations = 10;
   int max_cg_iterations = 500;
 };
@@ -56,10 +57,7 @@ class VolumeProjection {
 
   /// Forget the carried pressures: after this the results depend on the
   /// body's state alone (a restart point).
-  void reset() {
-    pressure_.resize(0);
-    scale_ = 1.0;
-  }
+  void reset() { pressure_.resize(0); }
 
   /// body.positions are the end of a step of length dt taken from `start`
   /// (xⁿ) with body.velocities: both are corrected (x += Δx, v += Δx / dt)
@@ -81,14 +79,6 @@ class VolumeProjection {
   /// unchanged.
   VolumeProjectionStats project(Body& body, const Points& start, const std::vector<std::uint8_t>& fixed, double dt,
                                 double span);
-
-  /// After contacts moved some nodes (positions differ from `before`): the
-  /// volume they took or gave is restored by the other nodes (those moved
-  /// are held, so no contact is undone), v with it. Nothing is carried: a
-  /// contact's reaction is not a pressure of the next step. Counts as a
-  /// projection in the stats.
-  VolumeProjectionStats restore_after_contact(Body& body, const Points& before, const std::vector<std::uint8_t>& fixed,
-                                              double dt);
 
   /// The second half of RATTLE (Andersen 1983) for a kick–drift–kick step:
   /// the end-of-step velocities lose their component that changes any nodal
@@ -124,11 +114,10 @@ class VolumeProjection {
   std::vector<Matrix34> weighted_;  ///< Λ_e ∂V_e/∂x
   Eigen::VectorXd volume_, rest_, element_sum_, inverse_mass_, node_rest_, diagonal_;
   Eigen::VectorXd error_, r_, z_, p_, Ap_, lambda_, best_;
-  std::vector<std::uint8_t> active_, movable_, touched_;
+  std::vector<std::uint8_t> active_, movable_;
   Points direction_, transposed_;
   Eigen::VectorXd pressure_;  ///< π, the carried nodal pressures, Pa
   double last_residual_ = 0.0;
-  double scale_ = 1.0;  ///< this step's surface_target_scale
 };
 
 /// max_i |V_i(x) − V̄_i| / (¼ Σ_{e∋i} W_e det Fp_e) over the nodes of

@@ -53,6 +53,11 @@ bool BackwardEulerIntegrator::lagged_pcg(const Eigen::VectorXd& b, Eigen::Vector
 
 BackwardEulerIntegrator::BackwardEulerIntegrator(BackwardEulerSettings settings, Constraints constraints)
     : settings_(std::move(settings)), constraints_(std::move(constraints)), factor_(std::make_unique<Factor>()) {
+  if (!(settings_.volume_tolerance > 0.0 && settings_.volume_tolerance < 0.1)) {
+    throw Error(
+        fmt::format("backward_euler.volume_tolerance must be in (0, 0.1), got {}", settings_.volume_tolerance));
+  }
+  volume_ = VolumeProjection(VolumeProjectionSettings{settings_.volume_tolerance});
   // One BLAS thread: TBB already runs the assembly on every core, and BLAS
   // threads spinning next to TBB's workers cost more than they bring.
   static const bool configured = [] {
@@ -337,10 +342,8 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
   status.plastic_elements = elastic_.plastic_elements();
   times_.forces += timer.lap();
   const double t_next = time_ + dt;
-  const Points before_contact = body.material.incompressible ? body.positions : Points();
   if (constraints_.ground) enforce_ground(body, *constraints_.ground, fixed_);
   status.collisions += collisions_.resolve_positions(body, constraints_.obstacles, t_next, fixed_).resolved;
-  if (body.material.incompressible) status.volume += volume_.restore_after_contact(body, before_contact, fixed_, dt);
   status.collisions +=
       collisions_.resolve_velocities(body, body.velocities, constraints_.obstacles, t_next, dt, fixed_).resolved;
   times_.collisions += timer.lap();

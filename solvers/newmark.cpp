@@ -24,6 +24,10 @@ double dot(const Points& a, const Points& b) {
 
 NewmarkIntegrator::NewmarkIntegrator(NewmarkSettings settings, Constraints constraints)
     : settings_(std::move(settings)), constraints_(std::move(constraints)) {
+  if (!(settings_.volume_tolerance > 0.0 && settings_.volume_tolerance < 0.1)) {
+    throw Error(fmt::format("newmark.volume_tolerance must be in (0, 0.1), got {}", settings_.volume_tolerance));
+  }
+  volume_ = VolumeProjection(VolumeProjectionSettings{settings_.volume_tolerance});
   if (!(settings_.cfl > 0.0 && settings_.cfl <= 1.0)) {
     throw Error(fmt::format("newmark.cfl must be in (0, 1], got {}", settings_.cfl));
   }
@@ -183,12 +187,9 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
   if (has_tension(body) && settings_.smoothing > 0.0)
     tension_.smooth(body, std::min(0.5, settings_.smoothing * body.material.surface_tension * dt));
   times_.surface += timer.lap();
-  const Points before_contact = incompressible ? body.positions : Points();
   status.ground_contacts = enforce_ground(body);
   status.collisions += collisions_.resolve_positions(body, obstacles, t_next, constrained_).resolved;
   times_.collisions += timer.lap();
-  if (incompressible) status.volume += volume_.restore_after_contact(body, before_contact, constrained_, dt);
-  times_.volume += timer.lap();
   // The surface against itself over the whole move, obstacles' corrections
   // included; the impulses change v½ too (Bridson et al. 2002).
   if (constraints_.self_collisions)

@@ -108,6 +108,9 @@ TEST(Incompressible, NewmarkWithTheProjectionComesToRestAtTheStaticEquilibrium) 
   constraints.pinned = clamped_nodes(body);
   NewmarkSettings settings;
   settings.gravity = Eigen::Vector3d(0.0, 0.0, -kGravity);
+  // Each step's volumes are met to the tolerance, and what is left moves the
+  // nodes by about tolerance × h each step: 10⁻⁶ keeps it below the match.
+  settings.volume_tolerance = 1e-6;
   NewmarkIntegrator integrator(settings, constraints);
   double last_tip = 0.0, change = 0.0;
   for (int frame = 1; frame <= 100; ++frame) {
@@ -118,7 +121,7 @@ TEST(Incompressible, NewmarkWithTheProjectionComesToRestAtTheStaticEquilibrium) 
   std::printf("tip at rest %.6g m, static equilibrium %.6g m\n", last_tip, equilibrium);
   // At rest: the tip moved less than 2e-3 of its deflection over the last 0.01 s.
   EXPECT_LT(change, 2e-3 * equilibrium);
-  EXPECT_LE(max_nodal_volume_error(body, body.positions), VolumeProjectionSettings{}.tolerance);
+  EXPECT_LE(max_nodal_volume_error(body, body.positions), settings.volume_tolerance);
   EXPECT_NEAR(last_tip, equilibrium, 5e-3 * equilibrium);
 }
 

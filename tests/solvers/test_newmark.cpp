@@ -6,6 +6,7 @@
 #include "core/body.h"
 #include "core/elastic_forces.h"
 #include "core/error.h"
+#include "solvers/backward_euler.h"
 #include "solvers/newmark.h"
 #include "tests/common/test_common.h"
 
@@ -225,6 +226,15 @@ TEST(Newmark, RefusesImpossibleSettings) {
   NewmarkSettings s;
   s.cfl = 1.5;
   EXPECT_THROW(NewmarkIntegrator(s, {}), Error);
+  for (const double tolerance : {0.0, -1e-4, 0.5}) {
+    NewmarkSettings v;
+    v.volume_tolerance = tolerance;
+    EXPECT_TRUE(test::throws_error_containing([&] { NewmarkIntegrator(v, {}); }, "newmark.volume_tolerance must be in"));
+    BackwardEulerSettings b;
+    b.volume_tolerance = tolerance;
+    EXPECT_TRUE(test::throws_error_containing([&] { BackwardEulerIntegrator(b, {}); },
+                                              "backward_euler.volume_tolerance must be in"));
+  }
 }
 
 }  // namespace
