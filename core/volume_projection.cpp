@@ -72,6 +72,8 @@ bool any_inverted(const Body& body, const Points& x) {
 constexpr double kCrushed = 0.1;
 /// The most of a node's volume the drift correction restores in one step.
 constexpr double kMaxDrift = 0.1;
+/// Projections between two measurements of the surface's volume.
+constexpr int kSurfaceEvery = 8;
 /// Iterations with G at xⁿ before the projection turns to Newton's method.
 constexpr int kChordIterations = 6;
 
@@ -271,8 +273,12 @@ double VolumeProjection::surface_target_scale(const Body& body) {
     material.add(body.solid_fractions[e] * volume_[e]);
     rest.add(body.solid_fractions[e] * body.rest_volumes[e] * body.Fp[at(e)].determinant());
   }
-  const double enclosed = surface_integrals(body.surface()).volume;
-  const double scale = (body.rest_material_volume - enclosed + material.value()) / rest.value();
+  // The surface itself is measured every kSurfaceEvery projections (and
+  // after every reset(), so a resumed run measures where the first did).
+  if (surface_age_ == 0 || surface_age_ >= kSurfaceEvery)
+    surface_age_ = 0, discrepancy_ = surface_integrals(body.surface()).volume - material.value();
+  ++surface_age_;
+  const double scale = (body.rest_material_volume - discrepancy_) / rest.value();
   return std::isfinite(scale) ? std::clamp(scale, 0.9, 1.1) : 1.0;
 }
 

@@ -57,7 +57,10 @@ class VolumeProjection {
 
   /// Forget the carried pressures: after this the results depend on the
   /// body's state alone (a restart point).
-  void reset() { pressure_.resize(0); }
+  void reset() {
+    pressure_.resize(0);
+    surface_age_ = 0;
+  }
 
   /// body.positions are the end of a step of length dt taken from `start`
   /// (xⁿ) with body.velocities: both are corrected (x += Δx, v += Δx / dt)
@@ -97,7 +100,9 @@ class VolumeProjection {
   /// s with which every target V̄_i is scaled so that the embedded surface
   /// encloses the material's own volume (Body::rest_material_volume, mass
   /// over density) after the projection: s = (V_material − V_s(x) + Σ φ_e
-  /// V_e(x)) / Σ φ_e V̄_e. 1 for a body without a surface or fractions.
+  /// V_e(x)) / Σ φ_e V̄_e, V_s − Σ φ_e V_e measured every few steps (it
+  /// changes with the shape, slowly). 1 for a body without a surface or
+  /// fractions.
   double surface_target_scale(const Body& body);
   void gradients(const Body& body, const Points& start);
   void volumes(const Body& body, const Points& positions);
@@ -118,6 +123,8 @@ class VolumeProjection {
   Points direction_, transposed_;
   Eigen::VectorXd pressure_;  ///< π, the carried nodal pressures, Pa
   double last_residual_ = 0.0;
+  double discrepancy_ = 0.0;  ///< V_s − Σ φ_e V_e when last measured
+  int surface_age_ = 0;       ///< projections since it was
 };
 
 /// max_i |V_i(x) − V̄_i| / (¼ Σ_{e∋i} W_e det Fp_e) over the nodes of

@@ -463,6 +463,11 @@ void read_integrator(Node n, Scene& s) {
     optional(n, "max_time_step", ns.max_time_step, [](const Node& v) { return v.positive(); });
     optional(n, "cg_tolerance", ns.cg_tolerance, [](const Node& v) { return v.positive(); });
     optional(n, "cg_max_iterations", ns.cg_max_iterations, [](const Node& v) { return v.integer(1, 1000000); });
+    optional(n, "volume_tolerance", ns.volume_tolerance, [](const Node& v) {
+      const double x = v.number();
+      if (!(x > 0.0 && x < 0.1)) v.fail(fmt::format("must be in (0, 0.1), got {}", x));
+      return x;
+    });
   } else {
     s.integrator = IntegratorKind::backward_euler;
     BackwardEulerSettings& bs = s.backward_euler;
@@ -477,6 +482,11 @@ void read_integrator(Node n, Scene& s) {
                            : (c == "lagged_pcg" ? LinearSolver::lagged_pcg : LinearSolver::automatic);
     });
     optional(n, "pcg_max_iterations", bs.pcg_max_iterations, [](const Node& v) { return v.integer(1, 100000); });
+    optional(n, "volume_tolerance", bs.volume_tolerance, [](const Node& v) {
+      const double x = v.number();
+      if (!(x > 0.0 && x < 0.1)) v.fail(fmt::format("must be in (0, 0.1), got {}", x));
+      return x;
+    });
   }
   n.finish();
 }

@@ -105,6 +105,15 @@ TEST(Scene, PresetsAreIncompressibleAndTheKeySwitchesItPerObject) {
   EXPECT_FALSE(parse(cube_with(R"({"youngs_modulus": 1e4})")).objects[0].material.incompressible);
   EXPECT_TRUE(test::throws_error_containing([&] { parse(cube_with(R"({"incompressible": 1})")); },
                                             "/objects/0/material/incompressible must be true or false"));
+  const auto with_integrator = [&](const std::string& integrator) {
+    return with_object(kCube, fmt::format(R"("integrator": {},)", integrator));
+  };
+  EXPECT_EQ(parse(with_integrator(R"({"type": "newmark", "volume_tolerance": 1e-6})")).newmark.volume_tolerance, 1e-6);
+  EXPECT_EQ(parse(with_integrator(R"({"type": "backward_euler", "volume_tolerance": 1e-3})")).backward_euler.volume_tolerance,
+            1e-3);
+  EXPECT_TRUE(test::throws_error_containing(
+      [&] { parse(with_integrator(R"({"type": "newmark", "volume_tolerance": 0})")); },
+      "/integrator/volume_tolerance must be in (0, 0.1), got 0"));
 }
 
 TEST(Scene, SelfCollisionsAreOnUnlessSwitchedOff) {
