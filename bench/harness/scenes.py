@@ -52,6 +52,8 @@ def run_section(ctx):
         row["max_crossing_pairs"] = max(q["self_intersecting_pairs"] for q in surfaces)
         row["max_creased_percent"] = max(100.0 * q["creased_edges"] / max(1, q["edges"]) for q in surfaces)
         row["min_volume_ratio"] = min(q["volume"] for q in surfaces) / surfaces[0]["volume"]
+        row["max_volume_ratio"] = max(q["volume"] for q in surfaces) / surfaces[0]["volume"]
+        row["last_volume_ratio"] = surfaces[-1]["volume"] / surfaces[0]["volume"]
         rows.append(row)
         for record in s["per_frame"]:
             q = record["surface"]
@@ -71,13 +73,15 @@ def run_section(ctx):
         ("steps", "steps", "{}"), ("remeshes", "re-meshes", "{}"), ("seconds_per_frame", "s/frame", "{:.3g}"),
         ("step.forces_percent", "forces %", "{:.0f}"), ("step.damping_percent", "damping %", "{:.0f}"),
         ("solve_percent", "Newton H + solve %", "{:.0f}"), ("step.collisions_percent", "collisions %", "{:.1f}"),
-        ("step.surface_percent", "surface %", "{:.1f}"), ("step.other_percent", "other step %", "{:.1f}"),
+        ("step.surface_percent", "surface %", "{:.1f}"), ("step.volume_percent", "volume proj. %", "{:.1f}"),
+        ("step.other_percent", "other step %", "{:.1f}"),
         ("remesh_check_percent", "trigger %", "{:.1f}"), ("remesh_percent", "re-mesh %", "{:.1f}"),
         ("frames_output_percent", "output %", "{:.1f}"), ("checkpoints_percent", "checkpoints %", "{:.1f}"),
         ("setup_percent", "setup %", "{:.0f}"), ("elements", "tets (end)", "{}"),
         ("surface_triangles", "triangles (end)", "{}"), ("peak_memory_mb", "peak MB", "{:.0f}"),
         ("max_crossing_pairs", "crossing pairs (max)", "{}"), ("max_creased_percent", "creased % (max)", "{:.2f}"),
-        ("min_volume_ratio", "volume (lowest)", "{:.3f}")],
+        ("min_volume_ratio", "volume (lowest)", "{:.3f}"), ("max_volume_ratio", "volume (highest)", "{:.3f}"),
+        ("last_volume_ratio", "volume (last)", "{:.3f}")],
         "Example scenes: where the wall time goes (% of wall)")
 
 
