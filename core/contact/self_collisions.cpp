@@ -25,6 +25,11 @@ constexpr int kMaxZoneRounds = 64;
 // step, not merely at rest: other impulses of the round then rarely turn it
 // back into an approach.
 constexpr double kSeparationFraction = 0.1;
+// How far an impulse may move a node, over the change it makes at its pair:
+// |c_k|/(m_k K) with K = Σ c_j²/m_j. With equal masses and no node on both
+// sides, one side's c (summing to 1 over at most 12 nodes) gives
+// Σ c_j² ≥ c_k² + 1/12, so the ratio is at most √3 and this never binds.
+constexpr double kMaxNodeMove = 2.0;
 // Continuous detection reports a pair within twice its minimum distance
 // (ccd.h); the list and the per-step bound keep every pair that can come
 // that close, so what is reported never depends on when the list was built
@@ -325,6 +330,19 @@ bool SelfCollisions::apply_impulse(const Body& body, const Pair& pair, const ccd
   const Vec3 ut = u - un * n;
   const double slide = ut.norm();
   if (slide > 0.0) change -= std::min(slide, friction * (target - un)) / K * (ut / slide);
+  // Node k moves by c_k/m_k × the impulse. Two sides whose points lie in
+  // elements sharing nodes nearly cancel there (small K), and a light node
+  // (a lattice node outside the material, at the mass floor) with a small
+  // weight is cheap to move: the impulse would send it far for a tiny
+  // change at the pair. No node moves more than kMaxNodeMove × the change
+  // the impulse makes at the pair (K × change); the impulse is scaled down,
+  // both sides alike (momentum kept), and what is left of the approach goes
+  // to the next round or to the rigid zones.
+  double largest = 0.0;
+  for (std::size_t k = 0; k < std::size_t(w.size); ++k)
+    largest = std::max(largest, std::abs(w.c[k]) * inverse_mass[k]);
+  const double allowed = kMaxNodeMove * K;
+  if (largest > allowed) change *= allowed / largest;
   for (std::size_t k = 0; k < std::size_t(w.size); ++k)
     d.row(w.node[k]) += (w.c[k] * inverse_mass[k] * change).transpose();
   return true;

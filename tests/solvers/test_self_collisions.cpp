@@ -159,6 +159,51 @@ TEST(SelfCollisions, RigidZonesAloneKeepTheSurfaceApart) {
   }
 }
 
+TEST(SelfCollisions, SheetsInOneElementDoNotFlingItsNodes) {
+  // One tet (apex node 3 at z = 0.1 m, a light node at the mass floor) holding
+  // two parallel triangles 5e-5 m apart, closer than the thickness. A pair's
+  // point moves by Σ c_i d_i with c_i the difference of the two sides'
+  // barycentric weights: here c = (−5e-4, 0, 0, 5e-4) for points above each
+  // other, so the impulse that separates the pair by its target alone would
+  // move nodes 0 and 3 by target / 1e-3 and more (node 3 is light): the
+  // element stretched a thousandfold for a gap of a micrometre. Each impulse
+  // moves a node at most twice what it changes at its pair, here at most a
+  // tenth of the missing thickness; the 15 pairs (6 vertex–triangle,
+  // 9 edge–edge) then move no node by more than 15 × 2 × 0.1 × the thickness.
+  const double thickness = 1e-4, gap = 5e-5;
+  TetMesh tet;
+  tet.positions.resize(4, 3);
+  tet.positions << 0, 0, 0, 0.1, 0, 0, 0, 0.1, 0, 0, 0, 0.1;
+  tet.tets.resize(1, 4);
+  tet.tets << 0, 1, 2, 3;
+  Body body = make_body(tet, gel());
+  body.masses[3] *= 0.05;
+  const double z = 0.01;
+  Points corners(6, 3);
+  corners << 0.01, 0.01, z, 0.05, 0.01, z, 0.01, 0.05, z,  //
+      0.01, 0.01, z + gap, 0.01, 0.05, z + gap, 0.05, 0.01, z + gap;
+  body.embedding.parent.assign(6, 0);
+  body.embedding.bary.resize(6, 4);
+  for (Index v = 0; v < 6; ++v) {
+    const Eigen::RowVector3d p = corners.row(v);
+    body.embedding.bary.row(v) << 1.0 - p.sum() / 0.1, p(0) / 0.1, p(1) / 0.1, p(2) / 0.1;
+  }
+  body.surface_triangles.resize(2, 3);
+  body.surface_triangles << 0, 1, 2, 3, 4, 5;
+  const Points x0 = body.positions;
+  Points d = Points::Zero(body.num_nodes(), 3);
+  SelfCollisions stage;
+  const SelfCollisionStats stats = stage.resolve(body, x0, d, {}, {thickness, 0.0, 8});
+  ASSERT_GT(stats.repulsions, 0);
+  EXPECT_LE(d.rowwise().norm().maxCoeff(), 15 * 2 * 0.1 * thickness);
+  // The sheets still draw apart, if only by the little a stretch of the
+  // element can give them: corners above each other (0–3, 1–5, 2–4).
+  const Points xs = body.embedding.surface_positions(body.tets, x0 + d);
+  for (const auto& [below, above] : {std::pair{0, 3}, std::pair{1, 5}, std::pair{2, 4}})
+    EXPECT_GT(xs(above, 2) - xs(below, 2), gap);
+  EXPECT_LT(momentum_change(body, Points::Zero(body.num_nodes(), 3), d).norm(), 1e-12 * momentum_scale(body, d));
+}
+
 TEST(SelfCollisions, ABodyWithAnInvertedElementIsLeftToTurnBack) {
   // The same throw with the elements of one sphere turned inside out at
   // the step's end (its nodes mirrored through its centre plane): an
