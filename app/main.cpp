@@ -8,6 +8,7 @@
 #include <iostream>
 
 #include "app/info_command.h"
+#include "app/render_command.h"
 #include "app/run_command.h"
 #include "core/error.h"
 #include "core/log.h"
@@ -50,6 +51,26 @@ int main(int argc, char** argv) {
   run->add_option("--resume", run_options.resume, "Continue from this checkpoint (the scene is stored in it)");
   run->add_flag("--quiet", run_options.quiet, "No progress or log lines, only errors");
   run->add_flag("--overwrite", run_options.overwrite, "Replace the frames of an earlier run in the output folder");
+  run->add_flag("--preview", run_options.preview, "Write a contact sheet of the frames when the run ends (render/sheet.png)");
+
+  goo::app::RenderOptions render_options;
+  CLI::App* render = app.add_subcommand(
+      "render", "Pictures of a run's frames: a contact sheet (default), one per frame, or a turntable (docs/rendering.md)");
+  render->add_option("RUN", render_options.run, "A run's output folder")->required();
+  render->add_option("--out", render_options.out, "Folder for the pictures (default: RUN/render)");
+  render->add_option("--scene", render_options.scene, "The run's scene (default: the one RUN/summary.json names)");
+  render->add_option("--sheet", render_options.sheet, "Frames on the contact sheet (default 12)");
+  render->add_flag("--each", render_options.each, "One picture per frame (frame_NNNNN.png)");
+  render->add_option("--turntable", render_options.turntable, "Views all around this frame (turntable_NNNNN/)");
+  render->add_option("--views", render_options.views, "Views of a turntable (default 36)");
+  render->add_option("--first", render_options.first, "First frame considered");
+  render->add_option("--last", render_options.last, "Last frame considered");
+  render->add_option("--size", render_options.size, "WIDTHxHEIGHT of each picture (default 960x720; 480x360 on a sheet)");
+  render->add_option("--azimuth", render_options.azimuth, "Degrees about the vertical the camera looks from (default -30)");
+  render->add_option("--elevation", render_options.elevation, "Degrees above the horizon the camera looks from (default 25)");
+  render->add_flag("--wireframe", render_options.wireframe, "Draw the tet mesh's edges (needs output.tet_mesh)");
+  render->add_flag("--mp4", render_options.mp4, "Also encode the pictures as an MP4 (needs ffmpeg)");
+  render->add_flag("--quiet", render_options.quiet, "No progress, only errors");
   goo::log();                      // create the logger, then let SPDLOG_LEVEL=debug (say) change its level
   spdlog::cfg::load_env_levels();
   try {
@@ -65,6 +86,7 @@ int main(int argc, char** argv) {
 
   try {
     if (info->parsed()) return goo::app::run_info(mesh_path, json, std::cout);
+    if (render->parsed()) return goo::app::render_run(render_options);
     if (run->parsed()) {
       if (run_options.quiet && goo::log().level() < spdlog::level::warn) goo::log().set_level(spdlog::level::warn);
       return goo::app::run_scene(run_options);

@@ -1,4 +1,5 @@
 #include "app/run_command.h"
+#include "app/render_command.h"
 
 #include <fmt/format.h>
 #include <tbb/global_control.h>
@@ -201,7 +202,12 @@ struct Outputs {
     quality_seconds += seconds_since(measured);
     const auto start = Clock::now();
     const fs::path frames = folder / "frames";
-    if (settings->ply) io::write_surface_mesh(frames / fmt::format("frame_{:05d}.ply", frame), surface);
+    if (settings->ply) {
+      const std::vector<std::int32_t> bodies = sim.surface_bodies();
+      io::WriteOptions options;
+      options.face_body = bodies;  // each triangle's body, for colouring (docs/running.md)
+      io::write_surface_mesh(frames / fmt::format("frame_{:05d}.ply", frame), surface, options);
+    }
     if (settings->obj) io::write_surface_mesh(frames / fmt::format("frame_{:05d}.obj", frame), surface);
     TetMesh tets;
     if (settings->tet_mesh) {
@@ -476,6 +482,16 @@ int run_scene(const RunOptions& options) {
     log().info("{} frames, {} steps, {} re-meshes in {:.1f} s; volume {:.6g} → {:.6g} m³; summary in {}", frame,
                sim.steps(), sim.remeshes(), seconds_since(wall_start), initial.volume, now.volume,
                (folder / "summary.json").string());
+  if (options.preview) {
+    // The run's own result stands whatever happens to its picture.
+    try {
+      const fs::path sheet = render_contact_sheet(folder, scene, 12, options.quiet);
+      std::fprintf(stdout, "contact sheet: %s\n", sheet.string().c_str());
+      std::fflush(stdout);
+    } catch (const std::exception& e) {
+      to_stderr(fmt::format("goo: error: no contact sheet: {}\n", e.what()));
+    }
+  }
   return exit_code;
 }
 

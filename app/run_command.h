@@ -14,6 +14,7 @@ struct RunOptions {
   std::optional<std::string> resume;  ///< checkpoint to continue from
   bool quiet = false;
   bool overwrite = false;  ///< replace the frames of an earlier run in the output folder
+  bool preview = false;    ///< a contact sheet of the frames when the run ends (goo render)
 };
 
 /// Exit codes of goo run (beside 2 for bad input, thrown as goo::Error).

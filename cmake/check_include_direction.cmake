@@ -1,11 +1,13 @@
 # Fails if a module includes a module it may not depend on (architecture.md):
-# core → nothing; meshing → core; solvers → core, meshing; io → core.
-set(_forbidden_core "meshing/;solvers/;io/;app/;bench/")
-set(_forbidden_meshing "solvers/;io/;app/;bench/")
-set(_forbidden_solvers "io/;app/;bench/")
-set(_forbidden_io "meshing/;solvers/;app/;bench/")
+# core → nothing; meshing → core; solvers → core, meshing; io → core;
+# render → core.
+set(_forbidden_core "meshing/;solvers/;io/;app/;bench/;render/")
+set(_forbidden_meshing "solvers/;io/;app/;bench/;render/")
+set(_forbidden_solvers "io/;app/;bench/;render/")
+set(_forbidden_io "meshing/;solvers/;app/;bench/;render/")
+set(_forbidden_render "meshing/;solvers/;io/;app/;bench/")
 set(_violations "")
-foreach(_module core meshing solvers io)
+foreach(_module core meshing solvers io render)
   file(GLOB_RECURSE _files "${SOURCE_DIR}/${_module}/*.h" "${SOURCE_DIR}/${_module}/*.cpp")
   foreach(_file ${_files})
     file(STRINGS "${_file}" _includes REGEX "^[ \t]*#[ \t]*include[ \t]+\"")

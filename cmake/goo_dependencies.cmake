@@ -21,6 +21,11 @@ goo_require(tinyobjloader libtinyobjloader-dev)
 goo_require(nlohmann_json nlohmann-json3-dev)
 goo_require(CLI11 libcli11-dev)
 goo_require(HDF5 libhdf5-dev COMPONENTS C)
+# goo render: offscreen OpenGL (EGL with the desktop OpenGL library of
+# glvnd; Mesa's libegl-mesa0 and libgl1-mesa-dri at run time) and libpng.
+set(OpenGL_GL_PREFERENCE GLVND)
+goo_require(OpenGL "libopengl-dev libegl-dev libgl-dev" COMPONENTS OpenGL EGL)
+goo_require(PNG libpng-dev)
 
 # CGAL configures its own build flags unless told not to touch them.
 set(CGAL_DO_NOT_WARN_ABOUT_CMAKE_BUILD_TYPE TRUE)

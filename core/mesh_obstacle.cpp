@@ -22,7 +22,7 @@ using Inside = CGAL::Side_of_triangle_mesh<Mesh, Kernel>;
 
 class MeshShape final : public Shape {
  public:
-  explicit MeshShape(const TriangleMesh& surface) {
+  explicit MeshShape(const TriangleMesh& surface) : surface_(surface) {
     std::vector<Mesh::Vertex_index> v;
     v.reserve(static_cast<std::size_t>(surface.num_vertices()));
     for (Index i = 0; i < surface.num_vertices(); ++i)
@@ -65,8 +65,10 @@ class MeshShape final : public Shape {
   }
 
   Eigen::AlignedBox3d bounds() const override { return bounds_; }
+  TriangleMesh boundary() const override { return surface_; }
 
  private:
+  TriangleMesh surface_;
   Mesh mesh_;
   Tree tree_;
   std::unique_ptr<Inside> inside_;

@@ -7,11 +7,16 @@
 #include <limits>
 
 #include "core/error.h"
+#include "core/primitives.h"
 
 namespace goo {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Segments around a sphere or cylinder drawn in pictures: edges turn by
+// 360°/64 = 5.6°, below what shading shows as facets at a picture's size.
+constexpr int kRoundSegments = 64;
 
 Eigen::AlignedBox3d unbounded() {
   return {Eigen::Vector3d::Constant(-kInf), Eigen::Vector3d::Constant(kInf)};
@@ -22,6 +27,7 @@ class HalfSpaceShape final : public Shape {
   HalfSpaceShape(const Eigen::Vector3d& n, double offset) : n_(n.normalized()), offset_(offset) {}
   SignedDistance signed_distance(const Eigen::Vector3d& p) const override { return {n_.dot(p) - offset_, n_}; }
   Eigen::AlignedBox3d bounds() const override { return unbounded(); }
+  TriangleMesh boundary() const override { return {}; }
 
  private:
   Eigen::Vector3d n_;
@@ -45,6 +51,7 @@ class BoxShape final : public Shape {
     return {d, sign[k] * Eigen::Vector3d::Unit(k)};
   }
   Eigen::AlignedBox3d bounds() const override { return {-half_, half_}; }
+  TriangleMesh boundary() const override { return make_box(2.0 * half_, 1); }
 
  private:
   Eigen::Vector3d half_;
@@ -60,6 +67,7 @@ class SphereShape final : public Shape {
   Eigen::AlignedBox3d bounds() const override {
     return {Eigen::Vector3d::Constant(-radius_), Eigen::Vector3d::Constant(radius_)};
   }
+  TriangleMesh boundary() const override { return make_sphere(radius_, kRoundSegments); }
 
  private:
   double radius_;
@@ -83,6 +91,7 @@ class CylinderShape final : public Shape {
   Eigen::AlignedBox3d bounds() const override {
     return {Eigen::Vector3d(-radius_, -radius_, -half_height_), Eigen::Vector3d(radius_, radius_, half_height_)};
   }
+  TriangleMesh boundary() const override { return make_cylinder(radius_, 2.0 * half_height_, kRoundSegments); }
 
  private:
   double radius_, half_height_;

@@ -25,6 +25,10 @@ class Shape {
   [[nodiscard]] virtual SignedDistance signed_distance(const Eigen::Vector3d& p) const = 0;
   /// Bounds of the solid (unbounded directions ±∞).
   [[nodiscard]] virtual Eigen::AlignedBox3d bounds() const = 0;
+  /// Its boundary as closed, outward triangles in its own frame, for
+  /// pictures (curved shapes tessellated finely enough to look round); empty
+  /// for an unbounded solid (a half-space).
+  [[nodiscard]] virtual TriangleMesh boundary() const = 0;
 };
 
 /// The solid n·p ≤ offset (n is normalised): a floor has n = +z, offset = its height.

@@ -59,6 +59,14 @@ struct SafetyLimits {
   double max_speed = 1000.0;  ///< m/s: any node faster is an energy blow-up
 };
 
+/// Where `goo render` looks from (without one it frames the whole run).
+struct SceneCamera {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< the eye, m
+  Eigen::Vector3d target = Eigen::Vector3d::Zero();    ///< the point at the picture's centre, m
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();       ///< the picture's up direction
+  double fov_degrees = 35.0;                           ///< vertical field of view
+};
+
 struct Scene {
   std::string source;       ///< the file it came from ("<built-in demo>" for the default)
   std::string text;         ///< the scene's JSON text, as read (stored in checkpoints)
@@ -74,6 +82,7 @@ struct Scene {
   OutputSettings output;
   int checkpoint_every_frames = 24;  ///< 0: only when the run ends or is interrupted
   SafetyLimits limits;
+  std::optional<SceneCamera> camera;  ///< for pictures only
 };
 
 std::string_view to_string(IntegratorKind kind);

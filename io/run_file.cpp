@@ -4,7 +4,11 @@
 
 #include <algorithm>
 #include <bit>
+#include <array>
+#include <cstdio>
 #include <cstring>
+#include <fstream>
+#include <type_traits>
 #include <sstream>
 
 #include "core/error.h"
@@ -169,6 +173,60 @@ void write_tet_mesh_vtk(const std::filesystem::path& path, const TetMesh& mesh) 
     for (Eigen::Index e = 0; e < ne; ++e) out.write(be(std::int32_t{10}).data(), 4);
     out << "\n";
   });
+}
+
+TetMesh read_tet_mesh_vtk(const std::filesystem::path& path) {
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error))
+    throw Error(fmt::format("{}: not a tetrahedral mesh file (missing, or not a regular file)", path.string()));
+  std::ifstream in(path, std::ios::binary);
+  auto fail = [&](std::string_view what) {
+    throw Error(fmt::format("{}: not a tetrahedral mesh goo wrote ({})", path.string(), what));
+  };
+  auto line = [&] {
+    std::string l;
+    if (!std::getline(in, l) || l.size() > 256) fail("truncated header");
+    return l;
+  };
+  auto from_be = [](auto& value) {
+    using T = std::remove_reference_t<decltype(value)>;
+    std::array<char, sizeof(T)> b{};
+    std::memcpy(b.data(), &value, sizeof(T));
+    if constexpr (std::endian::native == std::endian::little) std::reverse(b.begin(), b.end());
+    std::memcpy(&value, b.data(), sizeof(T));
+  };
+  if (line() != "# vtk DataFile Version 3.0") fail("not legacy VTK 3.0");
+  line();
+  if (line() != "BINARY" || line() != "DATASET UNSTRUCTURED_GRID") fail("not a binary unstructured grid");
+  long long nn = -1, ne = -1, size = -1;
+  if (std::sscanf(line().c_str(), "POINTS %lld double", &nn) != 1 || nn < 0) fail("no POINTS");
+  const std::uintmax_t bytes = std::filesystem::file_size(path, error);
+  if (error || static_cast<std::uintmax_t>(nn) > bytes / 24) fail("truncated POINTS");
+  TetMesh mesh;
+  mesh.positions.resize(nn, 3);
+  for (long long i = 0; i < nn; ++i)
+    for (int k = 0; k < 3; ++k) {
+      double v = 0.0;
+      in.read(reinterpret_cast<char*>(&v), sizeof v);
+      from_be(v);
+      mesh.positions(i, k) = v;
+    }
+  line();  // the newline after the binary block
+  if (std::sscanf(line().c_str(), "CELLS %lld %lld", &ne, &size) != 2 || ne < 0 || size != 5 * ne) fail("no CELLS");
+  if (static_cast<std::uintmax_t>(ne) > bytes / 20) fail("truncated CELLS");
+  mesh.tets.resize(ne, 4);
+  for (long long e = 0; e < ne; ++e) {
+    std::int32_t v[5] = {};
+    in.read(reinterpret_cast<char*>(v), sizeof v);
+    for (auto& x : v) from_be(x);
+    if (v[0] != 4) fail(fmt::format("cell {} is not a tetrahedron", e));
+    for (int k = 0; k < 4; ++k) {
+      if (v[k + 1] < 0 || v[k + 1] >= nn) fail(fmt::format("cell {} names node {} of {}", e, v[k + 1], nn));
+      mesh.tets(e, k) = v[k + 1];
+    }
+  }
+  if (!in) fail("truncated");
+  return mesh;
 }
 
 }  // namespace goo::io

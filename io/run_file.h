@@ -42,5 +42,8 @@ class RunFile {
 /// Writes a tetrahedral mesh as a binary legacy VTK unstructured grid
 /// (ParaView, VisIt), atomically.
 void write_tet_mesh_vtk(const std::filesystem::path& path, const TetMesh& mesh);
+/// Reads a mesh write_tet_mesh_vtk wrote (goo render's wireframe). Throws
+/// goo::Error naming the file for anything else, or a truncated file.
+TetMesh read_tet_mesh_vtk(const std::filesystem::path& path);
 
 }  // namespace goo::io

@@ -541,6 +541,24 @@ void read_output(Node n, OutputSettings& o) {
   n.finish();
 }
 
+SceneCamera read_camera(Node& n) {
+  SceneCamera c;
+  c.position = n.at("position").vec3();
+  c.target = n.at("target").vec3();
+  optional(n, "up", c.up, [](const Node& v) { return v.vec3(); });
+  optional(n, "fov_degrees", c.fov_degrees, [](const Node& v) {
+    const double f = v.number();
+    if (!(f > 0.0 && f < 180.0)) v.fail(fmt::format("must be in (0, 180) degrees, got {}", f));
+    return f;
+  });
+  const Eigen::Vector3d view = c.target - c.position;
+  if (!(view.norm() > 0.0)) n.at("target").fail("must differ from the camera's position");
+  if (!(c.up.cross(view).norm() > 1e-9 * view.norm() * c.up.norm()))
+    n.fail("has an 'up' direction along the line of sight (or zero): the picture has no up");
+  n.finish();
+  return c;
+}
+
 }  // namespace
 
 Scene parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder) {
@@ -613,6 +631,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::f
     optional(*l, "max_speed", s.limits.max_speed, [](const Node& v) { return v.positive(); });
     l->finish();
   }
+  if (auto c = root.get("camera")) s.camera = read_camera(*c);
   root.finish();
   return s;
 }

@@ -1,7 +1,10 @@
 #pragma once
 // Reading and writing triangle surface meshes: OFF, OBJ, PLY (ASCII and
 // binary) and STL (ASCII and binary). The format follows the file extension.
+#include <cstdint>
 #include <filesystem>
+#include <span>
+#include <vector>
 #include <string_view>
 
 #include "core/surface_check.h"
@@ -34,7 +37,22 @@ TriangleMesh read_surface_mesh(const std::filesystem::path& path, const ReadOpti
 struct WriteOptions {
   /// Binary where the format has it (PLY, STL); OFF and OBJ are ASCII only.
   Encoding encoding = Encoding::binary;
+  /// PLY only: each triangle's body (the `int body` face property), one per
+  /// triangle; empty: no such property.
+  std::span<const std::int32_t> face_body;
 };
+
+/// A frame goo wrote: the surfaces of every body, and each triangle's body.
+struct FrameSurface {
+  TriangleMesh mesh;
+  std::vector<std::int32_t> face_body;  ///< per triangle; all 0 when the file has no `body` property
+};
+
+/// Reads a frame (frames/frame_NNNNN.ply or .obj) without validating it
+/// (a frame may legitimately touch itself): goo's own binary PLY directly,
+/// any other file through read_surface_mesh. Throws goo::Error naming the
+/// file when it is truncated or malformed.
+FrameSurface read_frame_surface(const std::filesystem::path& path);
 
 /// Writes a surface mesh in the format of the path's extension. ASCII
 /// coordinates carry 17 significant digits (exact round trip); binary PLY

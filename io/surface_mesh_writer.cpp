@@ -57,22 +57,29 @@ void write_obj(std::ostream& out, const TriangleMesh& mesh) {
   flush(out, b);
 }
 
-void write_ply(std::ostream& out, const TriangleMesh& mesh, Encoding encoding) {
+void write_ply(std::ostream& out, const TriangleMesh& mesh, const WriteOptions& options) {
+  const bool labelled = !options.face_body.empty();
+  if (labelled && options.face_body.size() != static_cast<std::size_t>(mesh.num_triangles()))
+    throw Error(fmt::format("{} body labels for {} triangles", options.face_body.size(), mesh.num_triangles()));
+  const Encoding encoding = options.encoding;
   fmt::memory_buffer b;
   fmt::format_to(std::back_inserter(b),
                  "ply\nformat {} 1.0\ncomment written by goo\nelement vertex {}\nproperty double x\n"
                  "property double y\nproperty double z\nelement face {}\nproperty list uchar int vertex_indices\n"
-                 "end_header\n",
+                 "{}end_header\n",
                  encoding == Encoding::binary ? "binary_little_endian" : "ascii", mesh.num_vertices(),
-                 mesh.num_triangles());
+                 mesh.num_triangles(), labelled ? "property int body\n" : "");
   if (encoding == Encoding::ascii) {
     for (Index v = 0; v < mesh.num_vertices(); ++v) {
       write_xyz(b, mesh, v);
       b.push_back('\n');
     }
-    for (Index t = 0; t < mesh.num_triangles(); ++t)
-      fmt::format_to(std::back_inserter(b), "3 {} {} {}\n", mesh.triangles(t, 0), mesh.triangles(t, 1),
+    for (Index t = 0; t < mesh.num_triangles(); ++t) {
+      fmt::format_to(std::back_inserter(b), "3 {} {} {}", mesh.triangles(t, 0), mesh.triangles(t, 1),
                      mesh.triangles(t, 2));
+      if (labelled) fmt::format_to(std::back_inserter(b), " {}", options.face_body[static_cast<std::size_t>(t)]);
+      b.push_back('\n');
+    }
     flush(out, b);
     return;
   }
@@ -80,13 +87,15 @@ void write_ply(std::ostream& out, const TriangleMesh& mesh, Encoding encoding) {
   // Rows of a row-major #V×3 matrix are contiguous: write them as they are.
   out.write(reinterpret_cast<const char*>(mesh.vertices.data()),
             static_cast<std::streamsize>(sizeof(double) * 3 * static_cast<std::size_t>(mesh.num_vertices())));
-  std::vector<char> faces(static_cast<std::size_t>(mesh.num_triangles()) * 13);
+  const std::size_t record = labelled ? 17 : 13;
+  std::vector<char> faces(static_cast<std::size_t>(mesh.num_triangles()) * record);
   for (Index t = 0; t < mesh.num_triangles(); ++t) {
-    char* p = faces.data() + static_cast<std::size_t>(t) * 13;
+    char* p = faces.data() + static_cast<std::size_t>(t) * record;
     *p = 3;
     std::memcpy(p + 1, &mesh.triangles(t, 0), 4);
     std::memcpy(p + 5, &mesh.triangles(t, 1), 4);
     std::memcpy(p + 9, &mesh.triangles(t, 2), 4);
+    if (labelled) std::memcpy(p + 13, &options.face_body[static_cast<std::size_t>(t)], 4);
   }
   out.write(faces.data(), static_cast<std::streamsize>(faces.size()));
 }
@@ -151,7 +160,7 @@ void write_surface_mesh(const std::filesystem::path& path, const TriangleMesh& m
         write_obj(out, mesh);
         break;
       case MeshFormat::ply:
-        write_ply(out, mesh, options.encoding);
+        write_ply(out, mesh, options);
         break;
       case MeshFormat::stl:
         write_stl(out, mesh, options.encoding);

@@ -376,6 +376,14 @@ TriangleMesh Simulation::surface() const {
   return out;
 }
 
+std::vector<std::int32_t> Simulation::surface_bodies() const {
+  std::vector<std::int32_t> out;
+  for (std::size_t k = 0; k < bodies_.size(); ++k)
+    out.insert(out.end(), static_cast<std::size_t>(bodies_[k].body.surface_triangles.rows()),
+               static_cast<std::int32_t>(k));
+  return out;
+}
+
 StateRecord Simulation::save() const {
   StateRecord r;
   save(r);

@@ -2,6 +2,7 @@
 // The step pipeline of architecture.md ("One time step"), assembled per scene
 // from only the stages it needs, behind a thin owner of the state: bodies,
 // their integrators and constraints, the clock and the counters.
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <stdexcept>
@@ -102,6 +103,8 @@ class Simulation {
   [[nodiscard]] SimulationTotals totals() const;
   /// Every body's surface at the current positions, in one mesh (body order).
   [[nodiscard]] TriangleMesh surface() const;
+  /// Each triangle of surface()'s body (its index in bodies()).
+  [[nodiscard]] std::vector<std::int32_t> surface_bodies() const;
   /// The Δt the last step of each body took (0 before any step), s.
   [[nodiscard]] double last_time_step() const { return last_dt_; }
 

@@ -25,10 +25,12 @@ inline std::string slurp(const std::filesystem::path& path) {
   return s.str();
 }
 
-inline CommandResult goo(const std::string& arguments) {
+/// Runs goo with `arguments`; `environment` (say "PATH=/x") is set for it alone.
+inline CommandResult goo(const std::string& arguments, const std::string& environment = "") {
   test::TempDir dir;
-  const std::string command = std::string("'") + GOO_EXECUTABLE + "' " + arguments + " > '" + (dir / "out").string() +
-                              "' 2> '" + (dir / "err").string() + "'";
+  const std::string command = environment + (environment.empty() ? "" : " ") + std::string("'") + GOO_EXECUTABLE +
+                              "' " + arguments + " > '" + (dir / "out").string() + "' 2> '" + (dir / "err").string() +
+                              "'";
   const int status = std::system(command.c_str());
   CommandResult run;
   run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;

@@ -47,7 +47,9 @@ TEST_P(RoundTrip, PreservesTheSurface) {
   const Case c = GetParam();
   test::TempDir dir;
   const TriangleMesh mesh = test_surface();
-  io::write_surface_mesh(dir / c.file, mesh, {c.encoding});
+  io::WriteOptions options;
+  options.encoding = c.encoding;
+  io::write_surface_mesh(dir / c.file, mesh, options);
   const TriangleMesh back = io::read_surface_mesh(dir / c.file);
   ASSERT_EQ(back.num_triangles(), mesh.num_triangles());
   ASSERT_EQ(back.num_vertices(), mesh.num_vertices());

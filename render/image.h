@@ -1,0 +1,41 @@
+#pragma once
+// RGB images: PNG files (libpng), contact sheets and short labels.
+#include <cstdint>
+#include <filesystem>
+#include <string_view>
+#include <vector>
+
+namespace goo::render {
+
+/// 8-bit RGB, rows from the top.
+struct Image {
+  int width = 0;
+  int height = 0;
+  std::vector<std::uint8_t> rgb;  ///< width × height × 3
+
+  Image() = default;
+  Image(int w, int h, std::uint8_t grey = 255);
+  [[nodiscard]] std::uint8_t* at(int x, int y) { return rgb.data() + 3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)); }
+  [[nodiscard]] const std::uint8_t* at(int x, int y) const {
+    return rgb.data() + 3 * (static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x));
+  }
+};
+
+/// Writes a PNG beside `path` and renames it over `path` (a reader never
+/// sees half a picture; an earlier file stays until the new one is whole).
+/// Throws goo::Error naming the file.
+void write_png(const std::filesystem::path& path, const Image& image);
+/// Reads an 8-bit RGB or RGBA PNG (alpha dropped). Throws goo::Error naming the file.
+Image read_png(const std::filesystem::path& path);
+
+/// Copies `tile` into `sheet` with its top-left corner at (x, y), clipped.
+void paste(Image& sheet, const Image& tile, int x, int y);
+
+/// Writes `text` (digits, letters, space and . , : = - / ( ) %) in a 5×7
+/// pixel font scaled by `scale`, top-left at (x, y), in `colour`; clipped.
+/// Unknown characters are drawn as a box. Returns the width drawn.
+int draw_text(Image& image, std::string_view text, int x, int y, int scale, const std::uint8_t (&colour)[3]);
+/// The width `draw_text` would draw.
+int text_width(std::string_view text, int scale);
+
+}  // namespace goo::render
