@@ -7,6 +7,7 @@
 #include "core/primitives.h"
 #include "core/surface_check.h"
 #include "io/atomic_file.h"
+#include "io/run_file.h"
 #include "io/surface_mesh_io.h"
 #include "tests/common/test_common.h"
 
@@ -156,6 +157,47 @@ TEST(WriteSurfaceMesh, MissingFolderIsAClearError) {
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), HasSubstr("m.ply: cannot write: folder"));
   }
+}
+
+TEST(ReadFrameSurface, ReadsBackGoosFramesWithTheirBodies) {
+  test::TempDir dir;
+  const TriangleMesh mesh = make_torus(1.0 / 3.0, 0.1, 24, 12);
+  std::vector<std::int32_t> bodies(static_cast<std::size_t>(mesh.num_triangles()));
+  for (std::size_t t = 0; t < bodies.size(); ++t) bodies[t] = static_cast<std::int32_t>(t % 3);
+  io::WriteOptions labelled;
+  labelled.face_body = bodies;
+  io::write_surface_mesh(dir / "frame.ply", mesh, labelled);
+  const io::FrameSurface back = io::read_frame_surface(dir / "frame.ply");
+  EXPECT_TRUE(back.mesh.vertices == mesh.vertices);
+  EXPECT_TRUE(back.mesh.triangles == mesh.triangles);
+  EXPECT_EQ(back.face_body, bodies);
+  // Without labels, every triangle is body 0; an OBJ goes the generic way.
+  io::write_surface_mesh(dir / "plain.ply", mesh);
+  EXPECT_EQ(io::read_frame_surface(dir / "plain.ply").face_body, std::vector<std::int32_t>(bodies.size(), 0));
+  io::write_surface_mesh(dir / "frame.obj", mesh);
+  EXPECT_EQ(io::read_frame_surface(dir / "frame.obj").mesh.num_triangles(), mesh.num_triangles());
+  // A truncated frame, a missing one and a folder are refused, naming the file.
+  std::filesystem::resize_file(dir / "frame.ply", std::filesystem::file_size(dir / "frame.ply") - 5);
+  EXPECT_TRUE(test::throws_error_containing([&] { (void)io::read_frame_surface(dir / "frame.ply"); }, "frame.ply: truncated"));
+  EXPECT_TRUE(test::throws_error_containing([&] { (void)io::read_frame_surface(dir / "none.ply"); }, "none.ply: not a frame file"));
+  EXPECT_TRUE(test::throws_error_containing([&] { (void)io::read_frame_surface(dir.path()); }, "not a frame file"));
+}
+
+TEST(ReadTetMeshVtk, ReadsBackWhatGooWrote) {
+  test::TempDir dir;
+  TetMesh mesh;
+  mesh.positions.resize(5, 3);
+  mesh.positions << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1.5;
+  mesh.tets.resize(2, 4);
+  mesh.tets << 0, 1, 2, 3, 1, 2, 3, 4;
+  io::write_tet_mesh_vtk(dir / "tets.vtk", mesh);
+  const TetMesh back = io::read_tet_mesh_vtk(dir / "tets.vtk");
+  EXPECT_TRUE(back.positions == mesh.positions);
+  EXPECT_TRUE(back.tets == mesh.tets);
+  std::filesystem::resize_file(dir / "tets.vtk", std::filesystem::file_size(dir / "tets.vtk") - 40);
+  EXPECT_TRUE(test::throws_error_containing([&] { (void)io::read_tet_mesh_vtk(dir / "tets.vtk"); }, "tets.vtk"));
+  dir.write("text.vtk", "# vtk DataFile Version 3.0\nx\nASCII\nDATASET POLYDATA\n");
+  EXPECT_TRUE(test::throws_error_containing([&] { (void)io::read_tet_mesh_vtk(dir / "text.vtk"); }, "not a binary unstructured grid"));
 }
 
 }  // namespace

@@ -144,6 +144,24 @@ TEST(Scene, SelfCollisionsAreOnUnlessSwitchedOff) {
                                             "/objects/0/self_collisions must be an object"));
 }
 
+TEST(Scene, ACameraIsForPicturesAndChecked) {
+  EXPECT_FALSE(parse(with_object(kCube)).camera.has_value());
+  const Scene s = parse(with_object(kCube, R"("camera": {"position": [1, -2, 1], "target": [0, 0, 0.1], "fov_degrees": 40},)"));
+  ASSERT_TRUE(s.camera.has_value());
+  EXPECT_EQ(s.camera->position, Eigen::Vector3d(1, -2, 1));
+  EXPECT_EQ(s.camera->target, Eigen::Vector3d(0, 0, 0.1));
+  EXPECT_EQ(s.camera->up, Eigen::Vector3d::UnitZ());
+  EXPECT_EQ(s.camera->fov_degrees, 40.0);
+  const auto refused = [&](const std::string& camera, const std::string& message) {
+    return test::throws_error_containing([&] { parse(with_object(kCube, "\"camera\": " + camera + ",")); }, message);
+  };
+  EXPECT_TRUE(refused(R"({"target": [0, 0, 0]})", "/camera needs the key 'position'"));
+  EXPECT_TRUE(refused(R"({"position": [0, 0, 1], "target": [0, 0, 1]})", "/camera/target must differ"));
+  EXPECT_TRUE(refused(R"({"position": [0, 0, 1], "target": [0, 0, 0]})", "/camera has an 'up' direction along the line of sight"));
+  EXPECT_TRUE(refused(R"({"position": [1, 0, 1], "target": [0, 0, 0], "fov_degrees": 180})", "/camera/fov_degrees must be in (0, 180)"));
+  EXPECT_TRUE(refused(R"({"position": [1, 0, 1], "target": [0, 0, 0], "zoom": 2})", "/camera/zoom is not a known key"));
+}
+
 struct BadScene {
   std::string name;
   std::string text;
