@@ -202,8 +202,8 @@ struct Outputs {
     quality_seconds += seconds_since(measured);
     const auto start = Clock::now();
     const fs::path frames = folder / "frames";
+    const std::vector<std::int32_t> bodies = sim.surface_bodies();
     if (settings->ply) {
-      const std::vector<std::int32_t> bodies = sim.surface_bodies();
       io::WriteOptions options;
       options.face_body = bodies;  // each triangle's body, for colouring (docs/running.md)
       io::write_surface_mesh(frames / fmt::format("frame_{:05d}.ply", frame), surface, options);
@@ -227,7 +227,7 @@ struct Outputs {
       }
       io::write_tet_mesh_vtk(frames / fmt::format("tets_{:05d}.vtk", frame), tets);
     }
-    if (run_file) run_file->write_frame(frame, sim.time(), surface, settings->tet_mesh ? &tets : nullptr);
+    if (run_file) run_file->write_frame(frame, sim.time(), surface, settings->tet_mesh ? &tets : nullptr, bodies);
     seconds += seconds_since(start);
   }
 };
@@ -301,6 +301,9 @@ int run_scene(const RunOptions& options) {
   const bool resuming = resumed.has_value();
   if (resumed) {
     sim.load(*resumed);
+    const SimulationTotals loaded = sim.totals();  // the meshes the run goes on from
+    initial.nodes = loaded.nodes, initial.elements = loaded.elements;
+    initial.surface_vertices = loaded.surface_vertices, initial.surface_triangles = loaded.surface_triangles;
     frame = static_cast<int>(resumed->integer("run/frame"));
     initial.mass = resumed->real("run/initial_mass");
     initial.volume = resumed->real("run/initial_volume");
@@ -458,6 +461,8 @@ int run_scene(const RunOptions& options) {
   j["elements"] = now.elements;
   j["surface_vertices"] = now.surface_vertices;
   j["surface_triangles"] = now.surface_triangles;
+  j["initial_elements"] = initial.elements;
+  j["initial_surface_triangles"] = initial.surface_triangles;
   j["initial_mass"] = initial.mass;
   j["total_mass"] = now.mass;
   j["initial_volume"] = initial.volume;

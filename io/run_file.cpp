@@ -47,9 +47,19 @@ long long rows_of(hid_t group, const char* name) {
   return static_cast<long long>(dims[0]);
 }
 
-/// One XDMF grid: elements of `corners` nodes and XYZ points, both datasets of run.h5.
+/// One XDMF grid: elements of `corners` nodes and XYZ points, both datasets
+/// of run.h5; with `body_set`, each element's body as a cell attribute.
 std::string uniform_grid(const char* name, const char* topology, int corners, long long elements,
-                         const std::string& elements_set, long long points, const std::string& points_set) {
+                         const std::string& elements_set, long long points, const std::string& points_set,
+                         const std::string& body_set = "") {
+  const std::string body =
+      body_set.empty()
+          ? std::string()
+          : fmt::format("     <Attribute Name=\"body\" AttributeType=\"Scalar\" Center=\"Cell\">\n"
+                        "      <DataItem Dimensions=\"{}\" NumberType=\"Int\" Precision=\"4\" "
+                        "Format=\"HDF\">run.h5:{}</DataItem>\n"
+                        "     </Attribute>\n",
+                        elements, body_set);
   return fmt::format(
       "    <Grid Name=\"{0}\" GridType=\"Uniform\">\n"
       "     <Topology TopologyType=\"{1}\" NumberOfElements=\"{3}\">\n"
@@ -58,8 +68,9 @@ std::string uniform_grid(const char* name, const char* topology, int corners, lo
       "     <Geometry GeometryType=\"XYZ\">\n"
       "      <DataItem Dimensions=\"{5} 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">run.h5:{6}</DataItem>\n"
       "     </Geometry>\n"
+      "{7}"
       "    </Grid>\n",
-      name, topology, corners, elements, elements_set, points, points_set);
+      name, topology, corners, elements, elements_set, points, points_set, body);
 }
 
 }  // namespace
@@ -87,7 +98,7 @@ RunFile::RunFile(const std::filesystem::path& folder, int first_frame) : folder_
       H5Handle attr(H5Aopen(g, "time", H5P_DEFAULT), H5Aclose);
       if (attr.valid()) H5Aread(attr, H5T_NATIVE_DOUBLE, &time);
       frames_.push_back({frame, time, rows_of(g, "surface_vertices"), rows_of(g, "surface_triangles"),
-                         rows_of(g, "tet_positions"), rows_of(g, "tet_elements")});
+                         rows_of(g, "tet_positions"), rows_of(g, "tet_elements"), rows_of(g, "surface_bodies") > 0});
     }
   } else {
     f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
@@ -103,7 +114,8 @@ RunFile::~RunFile() {
   if (file_ >= 0) H5Fclose(file_);
 }
 
-void RunFile::write_frame(int frame, double time, const TriangleMesh& surface, const TetMesh* tets) {
+void RunFile::write_frame(int frame, double time, const TriangleMesh& surface, const TetMesh* tets,
+                          std::span<const std::int32_t> face_body) {
   detail::SilenceHdf5Errors quiet;
   const std::filesystem::path path = folder_ / "run.h5";
   const std::string name = frame_group(frame);
@@ -117,7 +129,16 @@ void RunFile::write_frame(int frame, double time, const TriangleMesh& surface, c
   }
   write_matrix(g, "surface_vertices", surface.vertices, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, path);
   write_matrix(g, "surface_triangles", surface.triangles, H5T_STD_I32LE, H5T_NATIVE_INT32, path);
-  Frame record{frame, time, surface.vertices.rows(), surface.triangles.rows(), 0, 0};
+  Frame record{frame, time, surface.vertices.rows(), surface.triangles.rows(), 0, 0, false};
+  if (!face_body.empty()) {
+    if (face_body.size() != static_cast<std::size_t>(surface.triangles.rows()))
+      throw Error(fmt::format("{}: {} body labels for {} triangles", path.string(), face_body.size(),
+                              surface.triangles.rows()));
+    const Eigen::Map<const Eigen::Matrix<std::int32_t, Eigen::Dynamic, 1>> bodies(
+        face_body.data(), static_cast<Eigen::Index>(face_body.size()));
+    write_matrix(g, "surface_bodies", bodies, H5T_STD_I32LE, H5T_NATIVE_INT32, path);
+    record.bodies = true;
+  }
   if (tets) {
     write_matrix(g, "tet_positions", tets->positions, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, path);
     write_matrix(g, "tet_elements", tets->tets, H5T_STD_I32LE, H5T_NATIVE_INT32, path);
@@ -139,7 +160,7 @@ void RunFile::write_xdmf() const {
     x << fmt::format("   <Grid Name=\"frame {:05d}\" GridType=\"Collection\" CollectionType=\"Spatial\">\n", f.frame);
     x << fmt::format("    <Time Value=\"{:.17g}\"/>\n", f.time);
     x << uniform_grid("surface", "Triangle", 3, f.triangles, g + "/surface_triangles", f.vertices,
-                      g + "/surface_vertices");
+                      g + "/surface_vertices", f.bodies ? g + "/surface_bodies" : "");
     if (f.tets > 0)
       x << uniform_grid("tets", "Tetrahedron", 4, f.tets, g + "/tet_elements", f.nodes, g + "/tet_positions");
     x << "   </Grid>\n";

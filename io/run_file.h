@@ -3,11 +3,14 @@
 // animation (docs/output-format.md):
 //   run.h5   /frames/NNNNN/surface_vertices  (#V×3 doubles)
 //            /frames/NNNNN/surface_triangles (#T×3 int32)
+//            /frames/NNNNN/surface_bodies    (#T×1 int32: each triangle's body)
 //            /frames/NNNNN/tet_positions, tet_elements (when tets are kept)
 //            each frame group with attribute time (s)
 //   run.xdmf a temporal collection of one grid per frame pointing into run.h5
 #include <filesystem>
+#include <cstdint>
 #include <optional>
+#include <span>
 
 #include "core/tet_mesh.h"
 #include "core/triangle_mesh.h"
@@ -24,8 +27,10 @@ class RunFile {
   RunFile(const RunFile&) = delete;
   RunFile& operator=(const RunFile&) = delete;
 
-  /// Appends frame `frame` at time t, flushes, and rewrites run.xdmf.
-  void write_frame(int frame, double time, const TriangleMesh& surface, const TetMesh* tets = nullptr);
+  /// Appends frame `frame` at time t, flushes, and rewrites run.xdmf (with
+  /// `face_body`, each triangle's body: a cell field "body" in ParaView).
+  void write_frame(int frame, double time, const TriangleMesh& surface, const TetMesh* tets = nullptr,
+                   std::span<const std::int32_t> face_body = {});
 
  private:
   void write_xdmf() const;
@@ -35,6 +40,7 @@ class RunFile {
     int frame;
     double time;
     long long vertices, triangles, nodes, tets;
+    bool bodies;
   };
   std::vector<Frame> frames_;
 };

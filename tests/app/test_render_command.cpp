@@ -75,6 +75,15 @@ TEST_F(GooRender, FramesLabelEachTriangleWithItsBody) {
   }
   EXPECT_GT(counts[0], 0);
   EXPECT_GT(counts[1], 0);
+  // run.h5 holds the same labels, a cell field of the XDMF sidecar (h5dump, an independent reader).
+  EXPECT_THAT(slurp(run() / "run.xdmf"), HasSubstr("<Attribute Name=\"body\""));
+  const fs::path dump = *dir_ / "bodies.txt";
+  ASSERT_EQ(std::system(fmt::format("h5dump -d /frames/00002/surface_bodies -y -w 0 {} > {}", quoted(run() / "run.h5"),
+                                    quoted(dump))
+                            .c_str()),
+            0);
+  const std::string text = slurp(dump);
+  EXPECT_THAT(text, HasSubstr(fmt::format("( {}, 1 )", frame.mesh.num_triangles())));
   // The generic reader (CGAL's PLY) still reads the file.
   EXPECT_EQ(io::read_surface_mesh(run() / "frames" / "frame_00002.ply").num_triangles(), frame.mesh.num_triangles());
 }
