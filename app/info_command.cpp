@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/surface_check.h"
+#include "io/atomic_file.h"
 #include "io/checkpoint.h"
 #include "io/surface_mesh_io.h"
 
@@ -146,6 +147,7 @@ int checkpoint_info(const std::filesystem::path& path, bool json, std::ostream& 
 }  // namespace
 
 int run_info(const std::filesystem::path& mesh_path, bool json, std::ostream& out) {
+  io::require_regular_file(mesh_path, "a mesh file or checkpoint");
   if (is_checkpoint(mesh_path)) return checkpoint_info(mesh_path, json, out);
   io::ReadOptions options;
   options.validate = false;  // report on what is there; judge below

@@ -15,6 +15,7 @@
 #include <set>
 
 #include "core/error.h"
+#include "io/atomic_file.h"
 #include "io/run_file.h"
 #include "io/scene_io.h"
 #include "io/surface_mesh_io.h"
@@ -27,6 +28,14 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
 constexpr std::uint8_t kInk[3] = {40, 40, 48};
+
+/// Writes a picture atomically (beside it, then renamed).
+void write_picture(const fs::path& path, const render::Image& image) {
+  const std::vector<std::uint8_t> bytes = render::encode_png(image);
+  io::write_file_atomically(path, [&](std::ostream& out) {
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  });
+}
 
 void to_stderr(const std::string& text) {
   // Progress must never stop a render (a reader that went away).
@@ -304,7 +313,7 @@ fs::path write_sheet(const RunPictures& pictures, const std::vector<int>& frames
     progress.update(k + 1);
   }
   const fs::path path = out / "sheet.png";
-  render::write_png(path, sheet);
+  write_picture(path, sheet);
   return path;
 }
 
@@ -371,7 +380,7 @@ int render_run(const RenderOptions& options) {
     Progress progress(options.quiet, options.views, fmt::format("turntable of frame {}", frame));
     for (int k = 0; k < options.views; ++k) {
       const render::Camera view = render::orbit(camera, 360.0 * k / options.views);
-      render::write_png(folder / fmt::format("view_{:03d}.png", k), pictures.draw(renderer, frame, view, box));
+      write_picture(folder / fmt::format("view_{:03d}.png", k), pictures.draw(renderer, frame, view, box));
       progress.update(k + 1);
     }
     if (!options.quiet) to_stderr(fmt::format("goo render: {} views in {}\n", options.views, folder.string()));
@@ -386,7 +395,7 @@ int render_run(const RenderOptions& options) {
     Progress progress(options.quiet, static_cast<int>(frames.size()), "frames");
     int done = 0;
     for (const int f : frames) {
-      render::write_png(out / fmt::format("frame_{:05d}.png", f), pictures.draw(renderer, f, camera, box));
+      write_picture(out / fmt::format("frame_{:05d}.png", f), pictures.draw(renderer, f, camera, box));
       progress.update(++done);
     }
     if (!options.quiet) to_stderr(fmt::format("goo render: {} pictures in {}\n", frames.size(), out.string()));

@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <fstream>
 #include <memory>
+#include <regex>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -243,6 +244,46 @@ void add_run_fields(StateSink& record, const Scene& scene, int frame, const Simu
   record.put_string("scene/base_folder", scene.base_folder);
 }
 
+/// RUN for a checkpoint RUN/checkpoints/frame_NNNNN.h5, if it is one.
+std::optional<fs::path> run_folder_of(const fs::path& checkpoint) {
+  const fs::path absolute = fs::absolute(checkpoint);
+  if (absolute.parent_path().filename() != "checkpoints") return std::nullopt;
+  return absolute.parent_path().parent_path();
+}
+
+/// The files a goo run writes into its folder (docs/running.md).
+bool is_run_file(const fs::path& relative) {
+  static const std::regex frame(R"(frames/(frame|tets)_\d{5,}\.(ply|obj|vtk))");
+  static const std::regex checkpoint(R"(checkpoints/frame_\d{5,}\.h5)");
+  const std::string name = relative.generic_string();
+  return name == "run.h5" || name == "run.xdmf" || name == "summary.json" || std::regex_match(name, frame) ||
+         std::regex_match(name, checkpoint);
+}
+
+std::vector<fs::path> run_files(const fs::path& folder) {
+  std::vector<fs::path> out;
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec)) return out;
+  for (const fs::path& sub : {fs::path(), fs::path("frames"), fs::path("checkpoints")}) {
+    if (!fs::is_directory(folder / sub, ec)) continue;
+    for (const auto& entry : fs::directory_iterator(folder / sub, ec))
+      if (is_run_file(sub / entry.path().filename())) out.push_back(entry.path());
+  }
+  return out;
+}
+
+bool holds_a_run(const fs::path& folder) { return !run_files(folder).empty(); }
+
+/// --overwrite: the earlier run's files go (a shorter new run must not leave
+/// the old one's later frames beside its own); nothing else in the folder.
+void remove_run(const fs::path& folder) {
+  for (const fs::path& file : run_files(folder)) {
+    std::error_code ec;
+    fs::remove(file, ec);
+    if (ec) throw Error(fmt::format("{}: cannot remove the earlier run's file ({})", file.string(), ec.message()));
+  }
+}
+
 bool no_external_force(const Scene& scene) {
   if (scene.gravity.norm() > 0.0 || scene.ground || !scene.obstacles.empty()) return false;
   for (const auto& o : scene.objects)
@@ -260,6 +301,7 @@ int run_scene(const RunOptions& options) {
   if (options.resume) {
     resumed = io::read_checkpoint(*options.resume);
     const std::string& text = resumed->string("scene/text");
+    if (options.scene) io::require_regular_file(*options.scene, "the scene file");
     if (options.scene && slurp(*options.scene) != text)
       throw Error(fmt::format("{}: differs from the scene stored in the checkpoint {}; resume without a scene file, "
                               "or with the one the run started from",
@@ -272,7 +314,16 @@ int run_scene(const RunOptions& options) {
   }
   const int last_frame = options.frames.value_or(scene.output.frames);
   if (last_frame < 0) throw Error(fmt::format("--frames must be non-negative, got {}", last_frame));
-  const fs::path folder = options.out.value_or(scene.output.folder);
+  if (options.out && options.out->empty()) throw Error("--out must name a folder, got an empty path");
+  // A resumed run goes on in its own folder (the checkpoint's
+  // RUN/checkpoints/frame_NNNNN.h5), not in the scene's folder relative to
+  // wherever goo is started.
+  const std::optional<fs::path> own_folder =
+      options.resume ? std::optional<fs::path>(run_folder_of(*options.resume)) : std::nullopt;
+  if (options.resume && !options.out && !own_folder)
+    throw Error(fmt::format("{}: is not in a run's checkpoints/ folder; give the folder to go on in with --out",
+                            *options.resume));
+  const fs::path folder = options.out ? fs::path(*options.out) : own_folder ? *own_folder : fs::path(scene.output.folder);
   if (options.threads < 0) throw Error(fmt::format("--threads must be positive, got {}", options.threads));
   std::unique_ptr<tbb::global_control> threads;
   if (options.threads > 0)
@@ -281,14 +332,16 @@ int run_scene(const RunOptions& options) {
   set_linear_algebra_threads(1);
 
   std::error_code ec;
-  const bool earlier_frames = fs::exists(folder / "frames" / "frame_00000.ply", ec) ||
-                              fs::exists(folder / "frames" / "frame_00000.obj", ec);
-  if (!options.resume && earlier_frames && !options.overwrite)
-    throw Error(fmt::format("{}: holds the frames of an earlier run; pass --overwrite to replace them, --resume to "
-                            "continue it, or choose another --out",
-                            folder.string()));
   if (fs::exists(folder, ec) && !fs::is_directory(folder, ec))
     throw Error(fmt::format("{}: --out must be a folder", folder.string()));
+  // Another run's output is never replaced unless asked: a new run into a
+  // folder holding one, or a run resumed into a folder other than its own.
+  const bool its_own = own_folder && fs::exists(folder, ec) && fs::equivalent(folder, *own_folder, ec);
+  if (holds_a_run(folder) && !its_own && !options.overwrite)
+    throw Error(fmt::format("{}: holds {}; pass --overwrite to replace it, --resume with one of its checkpoints to "
+                            "continue it, or choose another --out",
+                            folder.string(), options.resume ? "another run" : "an earlier run"));
+  if (holds_a_run(folder) && !its_own && options.overwrite) remove_run(folder);
 
   Simulation sim(scene);
   for (SceneObject& object : scene.objects) {  // meshed: the simulation holds them now

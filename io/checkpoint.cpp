@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/error.h"
+#include "io/atomic_file.h"
 #include "io/detail/hdf5_handle.h"
 
 namespace goo::io {
@@ -261,7 +262,7 @@ CheckpointWriter::CheckpointWriter(std::filesystem::path path) : impl_(std::make
   std::error_code ec;
   if (!std::filesystem::is_directory(w.folder, ec))
     throw Error(fmt::format("{}: cannot write: folder '{}' does not exist", w.path.string(), w.folder.string()));
-  w.temporary = w.folder / fmt::format(".{}.tmp-{}", w.path.filename().string(), static_cast<long>(::getpid()));
+  w.temporary = temporary_name(w.path);
   const std::filesystem::path& shown = w.path;
   H5Handle fcpl(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
   check(H5Pset_userblock(fcpl, kUserBlock), shown, "reserve the user block");
@@ -269,7 +270,7 @@ CheckpointWriter::CheckpointWriter(std::filesystem::path path) : impl_(std::make
   H5Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
   // 1.10 formats: checksummed superblock and object headers.
   check(H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_V110), shown, "select the file format");
-  w.file = H5Handle(check(H5Fcreate(w.temporary.c_str(), H5F_ACC_TRUNC, fcpl, fapl), shown, "create the file"),
+  w.file = H5Handle(check(H5Fcreate(w.temporary.c_str(), H5F_ACC_EXCL, fcpl, fapl), shown, "create the file"),
                     H5Fclose);
   try {
     set_string_attribute(w.file, "format", kMagic, shown);
@@ -319,7 +320,7 @@ void CheckpointWriter::commit(const std::function<void()>& before_rename) {
   std::string header = fmt::format("{}\nformat_version {}\nlength {}\nfnv1a64 {:016x}\n", kMagic,
                                    kCheckpointFormatVersion, length, hash);
   header.resize(kUserBlock, '\0');
-  const int fd = ::open(w.temporary.c_str(), O_WRONLY);
+  const int fd = ::open(w.temporary.c_str(), O_WRONLY | O_NOFOLLOW | O_CLOEXEC);
   if (fd < 0) throw Error(fmt::format("{}: cannot reopen: {}", path.string(), std::strerror(errno)));
   const bool ok = ::pwrite(fd, header.data(), kUserBlock, 0) == static_cast<ssize_t>(kUserBlock) && ::fsync(fd) == 0;
   ::close(fd);
@@ -345,6 +346,7 @@ void write_checkpoint(const std::filesystem::path& path, const StateRecord& reco
 }
 
 StateRecord read_checkpoint(const std::filesystem::path& path) {
+  require_regular_file(path, "a checkpoint");
   detail::SilenceHdf5Errors quiet;
   const std::string bytes = read_user_block(path);
   const std::string name = path.string();

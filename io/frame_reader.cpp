@@ -8,6 +8,7 @@
 #include <string>
 
 #include "core/error.h"
+#include "io/atomic_file.h"
 #include "io/surface_mesh_io.h"
 
 namespace goo::io {
@@ -55,8 +56,7 @@ bool parse_goo_header(std::istream& in, GooPly& out) {
 FrameSurface read_frame_surface(const std::filesystem::path& path) {
   FrameSurface frame;
   std::error_code error;
-  if (!std::filesystem::is_regular_file(path, error))
-    throw Error(fmt::format("{}: not a frame file (missing, or not a regular file)", path.string()));
+  require_regular_file(path, "a frame file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(fmt::format("{}: cannot open the frame", path.string()));
   GooPly header;

@@ -198,8 +198,7 @@ void write_tet_mesh_vtk(const std::filesystem::path& path, const TetMesh& mesh) 
 
 TetMesh read_tet_mesh_vtk(const std::filesystem::path& path) {
   std::error_code error;
-  if (!std::filesystem::is_regular_file(path, error))
-    throw Error(fmt::format("{}: not a tetrahedral mesh file (missing, or not a regular file)", path.string()));
+  require_regular_file(path, "a tetrahedral mesh file");
   std::ifstream in(path, std::ios::binary);
   auto fail = [&](std::string_view what) {
     throw Error(fmt::format("{}: not a tetrahedral mesh goo wrote ({})", path.string(), what));

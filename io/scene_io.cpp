@@ -13,6 +13,7 @@
 
 #include "core/error.h"
 #include "core/primitives.h"
+#include "io/atomic_file.h"
 #include "io/surface_mesh_io.h"
 #include "io/tet_mesh_io.h"
 
@@ -637,6 +638,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::f
 }
 
 Scene read_scene(const std::filesystem::path& path) {
+  require_regular_file(path, "the scene file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(fmt::format("{}: cannot open the scene file", path.string()));
   std::stringstream text;

@@ -11,6 +11,7 @@
 #include "core/log.h"
 #include "core/polygon_soup.h"
 #include "io/detail/polygon_soup_readers.h"
+#include "io/atomic_file.h"
 #include "io/surface_mesh_io.h"
 
 namespace goo::io {
@@ -87,6 +88,7 @@ TriangleMesh triangulate(const detail::PolygonSoup& soup, const std::string& nam
 TriangleMesh read_surface_mesh(const std::filesystem::path& path, const ReadOptions& options) {
   const std::string name = path.string();
   const MeshFormat format = mesh_format_of(path);
+  require_regular_file(path, "a mesh file");
   {
     std::ifstream probe(path, std::ios::binary);
     if (!probe) throw Error(fmt::format("{}: cannot open: {}", name, std::strerror(errno)));

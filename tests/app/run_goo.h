@@ -25,10 +25,11 @@ inline std::string slurp(const std::filesystem::path& path) {
   return s.str();
 }
 
-/// Runs goo with `arguments`; `environment` (say "PATH=/x") is set for it alone.
-inline CommandResult goo(const std::string& arguments, const std::string& environment = "") {
+/// Runs goo with `arguments`; `prefix` goes before the command (variables set
+/// for it alone, "PATH=/x", or a wrapper, "timeout 30").
+inline CommandResult goo(const std::string& arguments, const std::string& prefix = "") {
   test::TempDir dir;
-  const std::string command = environment + (environment.empty() ? "" : " ") + std::string("'") + GOO_EXECUTABLE +
+  const std::string command = prefix + (prefix.empty() ? "" : " ") + std::string("'") + GOO_EXECUTABLE +
                               "' " + arguments + " > '" + (dir / "out").string() + "' 2> '" + (dir / "err").string() +
                               "'";
   const int status = std::system(command.c_str());

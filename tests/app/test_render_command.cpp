@@ -19,6 +19,11 @@ using ::testing::HasSubstr;
 
 std::string quoted(const fs::path& p) { return fmt::format("'{}'", p.string()); }
 
+render::Image read_png(const fs::path& path) {
+  const std::string bytes = slurp(path);
+  return render::decode_png(std::vector<std::uint8_t>(bytes.begin(), bytes.end()), path.string());
+}
+
 /// Two cubes of two materials under a press, with the tet mesh in the output.
 const char* kTwoBodies = R"({
   "ground": {"height": 0.0, "friction": 0.4},
@@ -55,7 +60,7 @@ TEST_F(GooRender, PreviewWritesTheContactSheetAndPrintsItsPath) {
   ASSERT_EQ(preview_->exit_code, 0) << preview_->err;
   const fs::path sheet = run() / "render" / "sheet.png";
   EXPECT_THAT(preview_->out, HasSubstr("contact sheet: " + sheet.string()));
-  const render::Image image = render::read_png(sheet);
+  const render::Image image = read_png(sheet);
   // Three frames (0, 1, 2) of 480×360 on a 2×2 grid with a title.
   EXPECT_GT(image.width, 2 * 480);
   EXPECT_GT(image.height, 2 * 360);
@@ -93,14 +98,14 @@ TEST_F(GooRender, EachFrameAndATurntable) {
   const CommandResult each = goo(fmt::format("render {} --each --size 160x120 --wireframe --out {}", quoted(run()), quoted(out)));
   ASSERT_EQ(each.exit_code, 0) << each.err;
   for (int f = 0; f <= 2; ++f) {
-    const render::Image image = render::read_png(out / fmt::format("frame_{:05d}.png", f));
+    const render::Image image = read_png(out / fmt::format("frame_{:05d}.png", f));
     EXPECT_EQ(image.width, 160);
     EXPECT_EQ(image.height, 120);
   }
   const CommandResult turn = goo(fmt::format("render {} --turntable 1 --views 4 --size 64x48 --quiet", quoted(run())));
   ASSERT_EQ(turn.exit_code, 0) << turn.err;
   std::vector<render::Image> views;
-  for (int k = 0; k < 4; ++k) views.push_back(render::read_png(run() / "render/turntable_00001" / fmt::format("view_{:03d}.png", k)));
+  for (int k = 0; k < 4; ++k) views.push_back(read_png(run() / "render/turntable_00001" / fmt::format("view_{:03d}.png", k)));
   EXPECT_FALSE(views[0].rgb == views[1].rgb);  // it turns
   EXPECT_FALSE(fs::exists(run() / "render/turntable_00001/view_004.png"));
 }

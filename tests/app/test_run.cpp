@@ -4,6 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -134,7 +135,7 @@ TEST(GooRun, FramesAndSummaryOfAFreelyMovingCubeAreExact) {
     EXPECT_THAT(names, HasSubstr("dataset    " + path)) << path;
     ++referenced;
   }
-  EXPECT_EQ(referenced, 2 * 4);  // triangles and vertices of frames 0 to 3
+  EXPECT_EQ(referenced, 3 * 4);  // triangles, vertices and bodies of frames 0 to 3
   EXPECT_TRUE(fs::exists(dir / "out/checkpoints/frame_00003.h5"));  // the run's end
 }
 
@@ -324,6 +325,82 @@ TEST(GooRun, AnEarlierRunIsNotOverwrittenUnlessAsked) {
   EXPECT_THAT(again.err, HasSubstr("--overwrite"));
   EXPECT_EQ(bytes_of(dir / "a/frames/frame_00001.ply"), frame);
   EXPECT_EQ(goo(args({"run", scene, "--frames 1 --overwrite --out", quoted(dir / "a"), "--quiet"})).exit_code, 0);
+}
+
+TEST(GooRun, ARunWithoutFramesIsProtectedAndOverwritingLeavesNothingOfTheOldRun) {
+  test::TempDir dir;
+  // No frame files at all, only run.h5 and the summary: still an earlier run.
+  std::string quiet = kDrop;
+  quiet.replace(quiet.find("\"output\": {"), std::string("\"output\": {").size(), "\"output\": {\"formats\": [], ");
+  dir.write("quiet.json", quiet);
+  ASSERT_EQ(goo(args({"run", quoted(dir / "quiet.json"), "--frames 1 --out", quoted(dir / "q"), "--quiet"})).exit_code, 0);
+  ASSERT_TRUE(fs::exists(dir / "q/run.h5"));
+  const std::string run_file = bytes_of(dir / "q/run.h5");
+  const CommandResult again = goo(args({"run", quoted(dir / "quiet.json"), "--frames 1 --out", quoted(dir / "q")}));
+  EXPECT_EQ(again.exit_code, 2);
+  EXPECT_THAT(again.err, HasSubstr("holds an earlier run"));
+  EXPECT_EQ(bytes_of(dir / "q/run.h5"), run_file);
+  // A shorter run with --overwrite leaves none of the longer one's frames
+  // or checkpoints; files that are not goo's stay.
+  dir.write("drop.json", kDrop);
+  ASSERT_EQ(goo(args({"run", quoted(dir / "drop.json"), "--frames 3 --out", quoted(dir / "a"), "--quiet"})).exit_code, 0);
+  dir.write("a/notes.txt", "mine");
+  ASSERT_TRUE(fs::exists(dir / "a/frames/frame_00003.ply"));
+  ASSERT_TRUE(fs::exists(dir / "a/checkpoints/frame_00002.h5"));
+  ASSERT_EQ(goo(args({"run", quoted(dir / "drop.json"), "--frames 1 --overwrite --out", quoted(dir / "a"), "--quiet"})).exit_code, 0);
+  EXPECT_TRUE(fs::exists(dir / "a/frames/frame_00001.ply"));
+  EXPECT_FALSE(fs::exists(dir / "a/frames/frame_00002.ply"));
+  EXPECT_FALSE(fs::exists(dir / "a/frames/frame_00003.ply"));
+  EXPECT_FALSE(fs::exists(dir / "a/checkpoints/frame_00002.h5"));
+  EXPECT_EQ(slurp(dir / "a/notes.txt"), "mine");
+  // An empty --out is refused.
+  const CommandResult empty = goo(args({"run", quoted(dir / "drop.json"), "--frames 1 --out ''"}));
+  EXPECT_EQ(empty.exit_code, 2);
+  EXPECT_THAT(empty.err, HasSubstr("--out must name a folder"));
+}
+
+TEST(GooRun, AResumedRunGoesOnInItsOwnFolderAndNeverIntoAnothers) {
+  test::TempDir dir;
+  dir.write("drop.json", kDrop);
+  const std::string scene = quoted(dir / "drop.json");
+  ASSERT_EQ(goo(args({"run", scene, "--frames 2 --out", quoted(dir / "a"), "--quiet"})).exit_code, 0);
+  ASSERT_EQ(goo(args({"run", scene, "--frames 1 --out", quoted(dir / "b"), "--quiet"})).exit_code, 0);
+  const std::string b_summary = bytes_of(dir / "b/summary.json");
+  // Into b, which holds another run: refused, b untouched.
+  const CommandResult into_b =
+      goo(args({"run --resume", quoted(dir / "a/checkpoints/frame_00002.h5"), "--frames 3 --out", quoted(dir / "b")}));
+  EXPECT_EQ(into_b.exit_code, 2);
+  EXPECT_THAT(into_b.err, HasSubstr("holds another run"));
+  EXPECT_EQ(bytes_of(dir / "b/summary.json"), b_summary);
+  EXPECT_FALSE(fs::exists(dir / "b/frames/frame_00003.ply"));
+  // Without --out, from another folder: it goes on in a/.
+  const CommandResult own = goo(args({"run --resume", quoted(dir / "a/checkpoints/frame_00002.h5"), "--frames 3 --quiet"}));
+  ASSERT_EQ(own.exit_code, 0) << own.err;
+  EXPECT_TRUE(fs::exists(dir / "a/frames/frame_00003.ply"));
+}
+
+TEST(GooRun, FifosDevicesAndFoldersAreRefusedNotRead) {
+  // A FIFO would block forever and /dev/zero never end: refused at once
+  // (exit 2, naming the file), whichever command is given them, also through
+  // a link with a mesh's name.
+  test::TempDir dir;
+  ASSERT_EQ(::mkfifo((dir / "fifo").c_str(), 0600), 0);
+  fs::create_symlink("/dev/zero", dir / "zero.off");
+  fs::create_directories(dir / "folder.json");
+  const std::vector<std::string> commands = {
+      args({"run", quoted(dir / "fifo")}),
+      args({"run", quoted(dir / "folder.json")}),
+      args({"info", quoted(dir / "fifo")}),
+      args({"info", quoted(dir / "zero.off")}),
+      args({"info", quoted(dir / "fifo") + ".h5"}),
+      args({"run --resume", quoted(dir / "fifo")}),
+  };
+  fs::create_symlink(dir / "fifo", dir / "fifo.h5");
+  for (const std::string& command : commands) {
+    const CommandResult r = goo(command, "timeout 30");  // a hang fails as exit 124
+    EXPECT_EQ(r.exit_code, 2) << command << ": " << r.err;
+    EXPECT_THAT(r.err, HasSubstr("must be a regular file")) << command;
+  }
 }
 
 TEST(GooRun, ANumericalFailureIsDiagnosedAndKeepsTheLastGoodCheckpoint) {

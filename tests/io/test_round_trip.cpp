@@ -179,8 +179,8 @@ TEST(ReadFrameSurface, ReadsBackGoosFramesWithTheirBodies) {
   // A truncated frame, a missing one and a folder are refused, naming the file.
   std::filesystem::resize_file(dir / "frame.ply", std::filesystem::file_size(dir / "frame.ply") - 5);
   EXPECT_TRUE(test::throws_error_containing([&] { (void)io::read_frame_surface(dir / "frame.ply"); }, "frame.ply: truncated"));
-  EXPECT_TRUE(test::throws_error_containing([&] { (void)io::read_frame_surface(dir / "none.ply"); }, "none.ply: not a frame file"));
-  EXPECT_TRUE(test::throws_error_containing([&] { (void)io::read_frame_surface(dir.path()); }, "not a frame file"));
+  EXPECT_TRUE(test::throws_error_containing([&] { (void)io::read_frame_surface(dir / "none.ply"); }, "none.ply: cannot open a frame file"));
+  EXPECT_TRUE(test::throws_error_containing([&] { (void)io::read_frame_surface(dir.path()); }, "a frame file must be a regular file, and this is a folder"));
 }
 
 TEST(ReadTetMeshVtk, ReadsBackWhatGooWrote) {
