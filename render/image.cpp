@@ -2,26 +2,16 @@
 
 #include <fmt/format.h>
 #include <png.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <array>
 #include <cctype>
 #include <csetjmp>
-#include <cstdio>
-#include <memory>
 
 #include "core/error.h"
 
 namespace goo::render {
 namespace {
-
-struct FileCloser {
-  void operator()(std::FILE* f) const {
-    if (f) std::fclose(f);
-  }
-};
-using File = std::unique_ptr<std::FILE, FileCloser>;
 
 /// libpng reports errors through longjmp; its messages are kept here.
 void on_error(png_structp png, png_const_charp message) {
@@ -76,52 +66,51 @@ const std::array<std::uint8_t, 7>& glyph(char c) {
 Image::Image(int w, int h, std::uint8_t grey)
     : width(w), height(h), rgb(3 * static_cast<std::size_t>(w) * static_cast<std::size_t>(h), grey) {}
 
-void write_png(const std::filesystem::path& path, const Image& image) {
-  const std::filesystem::path temporary =
-      path.parent_path() / fmt::format(".{}.tmp-{}", path.filename().string(), ::getpid());
+namespace {
+struct Reader {
+  const std::vector<std::uint8_t>* bytes;
+  std::size_t at = 0;
+};
+void write_bytes(png_structp png, png_bytep data, png_size_t length) {
+  auto* out = static_cast<std::vector<std::uint8_t>*>(png_get_io_ptr(png));
+  out->insert(out->end(), data, data + length);
+}
+void flush_bytes(png_structp) {}
+void read_bytes(png_structp png, png_bytep data, png_size_t length) {
+  auto* in = static_cast<Reader*>(png_get_io_ptr(png));
+  if (in->at + length > in->bytes->size()) png_error(png, "truncated");
+  std::copy_n(in->bytes->data() + in->at, length, data);
+  in->at += length;
+}
+}  // namespace
+
+std::vector<std::uint8_t> encode_png(const Image& image) {
+  std::vector<std::uint8_t> bytes;
   std::string message;
-  {
-    File file(std::fopen(temporary.c_str(), "wb"));
-    if (!file) throw Error(fmt::format("{}: cannot write the picture (cannot create a file there)", path.string()));
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &message, on_error, on_warning);
-    png_infop info = png ? png_create_info_struct(png) : nullptr;
-    volatile bool ok = png && info;
-    if (ok) {
-      if (setjmp(png_jmpbuf(png))) {
-        ok = false;
-      } else {
-        png_init_io(png, file.get());
-        png_set_IHDR(png, info, static_cast<png_uint_32>(image.width), static_cast<png_uint_32>(image.height), 8,
-                     PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-        png_set_compression_level(png, 9);
-        png_write_info(png, info);
-        for (int y = 0; y < image.height; ++y) png_write_row(png, image.at(0, y));
-        png_write_end(png, info);
-      }
-    }
-    png_destroy_write_struct(png ? &png : nullptr, info ? &info : nullptr);
-    const bool flushed = ok && std::fflush(file.get()) == 0 && ::fsync(::fileno(file.get())) == 0;
-    if (!flushed) {
-      file.reset();
-      std::error_code ignored;
-      std::filesystem::remove(temporary, ignored);
-      throw Error(fmt::format("{}: cannot write the picture ({})", path.string(),
-                              message.empty() ? "the disk refused the data" : message));
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &message, on_error, on_warning);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  volatile bool ok = png && info;
+  if (ok) {
+    if (setjmp(png_jmpbuf(png))) {
+      ok = false;
+    } else {
+      png_set_write_fn(png, &bytes, write_bytes, flush_bytes);
+      png_set_IHDR(png, info, static_cast<png_uint_32>(image.width), static_cast<png_uint_32>(image.height), 8,
+                   PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+      png_set_compression_level(png, 9);
+      png_write_info(png, info);
+      for (int y = 0; y < image.height; ++y) png_write_row(png, image.at(0, y));
+      png_write_end(png, info);
     }
   }
-  std::error_code error;
-  std::filesystem::rename(temporary, path, error);
-  if (error) {
-    std::error_code ignored;
-    std::filesystem::remove(temporary, ignored);
-    throw Error(fmt::format("{}: cannot write the picture ({})", path.string(), error.message()));
-  }
+  png_destroy_write_struct(png ? &png : nullptr, info ? &info : nullptr);
+  if (!ok) throw Error(fmt::format("cannot encode a {}×{} picture ({})", image.width, image.height, message));
+  return bytes;
 }
 
-Image read_png(const std::filesystem::path& path) {
-  File file(std::fopen(path.c_str(), "rb"));
-  if (!file) throw Error(fmt::format("{}: cannot open the picture", path.string()));
+Image decode_png(const std::vector<std::uint8_t>& bytes, std::string_view name) {
   std::string message;
+  Reader reader{&bytes};
   png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &message, on_error, on_warning);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   Image image;
@@ -130,7 +119,7 @@ Image read_png(const std::filesystem::path& path) {
     if (setjmp(png_jmpbuf(png))) {
       ok = false;
     } else {
-      png_init_io(png, file.get());
+      png_set_read_fn(png, &reader, read_bytes);
       png_read_info(png, info);
       png_set_strip_16(png);
       png_set_strip_alpha(png);
@@ -148,7 +137,7 @@ Image read_png(const std::filesystem::path& path) {
     }
   }
   png_destroy_read_struct(png ? &png : nullptr, info ? &info : nullptr, nullptr);
-  if (!ok) throw Error(fmt::format("{}: not a readable PNG ({})", path.string(), message));
+  if (!ok) throw Error(fmt::format("{}: not a readable PNG ({})", name, message));
   return image;
 }
 

@@ -1,7 +1,6 @@
 #pragma once
 // RGB images: PNG files (libpng), contact sheets and short labels.
 #include <cstdint>
-#include <filesystem>
 #include <string_view>
 #include <vector>
 
@@ -21,12 +20,12 @@ struct Image {
   }
 };
 
-/// Writes a PNG beside `path` and renames it over `path` (a reader never
-/// sees half a picture; an earlier file stays until the new one is whole).
-/// Throws goo::Error naming the file.
-void write_png(const std::filesystem::path& path, const Image& image);
-/// Reads an 8-bit RGB or RGBA PNG (alpha dropped). Throws goo::Error naming the file.
-Image read_png(const std::filesystem::path& path);
+/// The image as a PNG file's bytes (written to disk by the caller: io's
+/// atomic writer).
+std::vector<std::uint8_t> encode_png(const Image& image);
+/// An 8-bit RGB or RGBA PNG's bytes (alpha dropped) as an image; goo::Error
+/// naming `name` when they are not one.
+Image decode_png(const std::vector<std::uint8_t>& bytes, std::string_view name);
 
 /// Copies `tile` into `sheet` with its top-left corner at (x, y), clipped.
 void paste(Image& sheet, const Image& tile, int x, int y);
