@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
+#include <vector>
 
 #include "core/error.h"
 #include "core/primitives.h"
@@ -124,6 +125,8 @@ class Node {
   }
   [[nodiscard]] int integer(int low, int high) const {
     if (!value_.is_number_integer()) fail(fmt::format("must be an integer, got {}", type_name(value_)));
+    if (value_.is_number_unsigned() && value_.get<unsigned long long>() > static_cast<unsigned long long>(high))
+      fail(fmt::format("must be an integer in [{}, {}], got {}", low, high, value_.get<unsigned long long>()));
     const auto v = value_.get<long long>();
     if (v < low || v > high) fail(fmt::format("must be an integer in [{}, {}], got {}", low, high, v));
     return static_cast<int>(v);
@@ -564,8 +567,62 @@ SceneCamera read_camera(Node& n) {
 
 Scene parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder) {
   json doc;
+  // A strict reader: a key given twice in one object is refused (which of
+  // the two was meant?), with its JSON path.
+  struct Level {
+    bool array = false;
+    std::size_t index = 0;
+    std::string key;
+    std::set<std::string> keys;
+  };
+  std::vector<Level> levels;
+  const auto strict = [&](int, json::parse_event_t event, json& parsed) {
+    switch (event) {
+      case json::parse_event_t::object_start:
+      case json::parse_event_t::array_start:
+        levels.push_back({event == json::parse_event_t::array_start, 0, {}, {}});
+        break;
+      case json::parse_event_t::key: {
+        Level& level = levels.back();
+        level.key = parsed.get<std::string>();
+        if (!level.keys.insert(level.key).second) {
+          std::string path;
+          for (const Level& l : levels) path += "/" + (l.array ? std::to_string(l.index) : l.key);
+          throw Error(fmt::format("{}: {} is given twice in one object (a strict reader takes neither)", source, path));
+        }
+        break;
+      }
+      case json::parse_event_t::object_end:
+      case json::parse_event_t::array_end:
+        levels.pop_back();
+        if (!levels.empty() && levels.back().array) ++levels.back().index;
+        break;
+      case json::parse_event_t::value:
+        if (!levels.empty() && levels.back().array) ++levels.back().index;
+        break;
+    }
+    return true;
+  };
   try {
-    doc = json::parse(text);
+    doc = json::parse(text, strict);
+  } catch (const json::out_of_range& e) {
+    // A number beyond double's range (1e309, a 400-digit integer): the
+    // message quotes it; its line and column are where it first appears.
+    const std::string what = e.what();
+    const std::size_t open = what.find('\''), close = what.rfind('\'');
+    const std::string token = open != std::string::npos && close > open ? what.substr(open + 1, close - open - 1) : "";
+    const std::size_t at = token.empty() ? std::string_view::npos : text.find(token);
+    std::size_t line = 1, column = 1;
+    for (std::size_t i = 0; at != std::string_view::npos && i < at; ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        column = 1;
+      } else {
+        ++column;
+      }
+    }
+    throw Error(fmt::format("{}:{}:{}: a number beyond the range of double precision ('{}')", source, line, column,
+                            token));
   } catch (const json::parse_error& e) {
     // e.byte is one past the offending character; report line and column.
     std::size_t line = 1, column = 1;
