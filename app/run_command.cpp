@@ -35,6 +35,8 @@ using Clock = std::chrono::steady_clock;
 namespace fs = std::filesystem;
 
 volatile std::sig_atomic_t g_signal = 0;   // the last signal
+/// Seconds a signalled run waits for the frame under way to end.
+constexpr double kSignalGrace = 10.0;
 volatile std::sig_atomic_t g_signals = 0;  // how many arrived
 
 extern "C" void on_signal(int signal) {
@@ -295,6 +297,9 @@ bool no_external_force(const Scene& scene) {
 
 int run_scene(const RunOptions& options) {
   const auto wall_start = Clock::now();
+  // Signals are caught from the start: one during setup stops the run after
+  // frame 0, with its checkpoint and summary (exit 130), like any other.
+  SignalGuard signals;
   // 1. Everything that can be refused is read and checked before anything is written.
   std::optional<StateRecord> resumed;
   Scene scene;
@@ -401,7 +406,6 @@ int run_scene(const RunOptions& options) {
   // second stops at once, keeping the checkpoints already written. (Holding
   // a copy of the last frame's state instead, to write when a signal comes,
   // cost 430 bytes per tet: 40% of the Newmark path's memory.)
-  SignalGuard signals;
   Progress progress(options.quiet, frame, last_frame);
   progress.set_steps0(sim.steps());
   std::string status = "completed", failure;
@@ -439,20 +443,26 @@ int run_scene(const RunOptions& options) {
     steps_before = sim.steps();
     return r;
   };
-  bool told = false;
+  bool told = false, stopped_in_frame = false;
+  Clock::time_point signalled;
   auto stop_now = [&] {
     if (g_signals == 1 && !told) {
       told = true;
+      signalled = Clock::now();
       progress.finish();
-      log().warn("signal {}: finishing frame {}, then writing its checkpoint (another signal stops at once)",
-                 static_cast<int>(g_signal), frame + 1);
+      log().warn("signal {}: finishing frame {}, then writing its checkpoint (another signal stops at once; so "
+                 "does a frame not finished within {:.0f} s)",
+                 static_cast<int>(g_signal), frame + 1, kSignalGrace);
     }
-    return g_signals >= 2;
+    // A frame that would not end (a huge frame time, a tiny time step) must
+    // not hold a signalled run forever.
+    return g_signals >= 2 || (told && seconds_since(signalled) > kSignalGrace);
   };
   while (true) {
     sim.make_restart_point();
     if (frame >= last_frame) break;
     if (g_signals > 0) {  // a whole frame after the signal: its checkpoint is written below
+      if (!told) log().warn("signal {} during setup: stopping after frame {}", static_cast<int>(g_signal), frame);
       status = "interrupted";
       exit_code = kExitInterrupted;
       break;
@@ -472,8 +482,10 @@ int run_scene(const RunOptions& options) {
       break;
     }
     if (!completed) {
+      stopped_in_frame = true;
       progress.finish();
-      log().warn("a second signal: stopping now, in frame {}; the checkpoints already written are kept", frame + 1);
+      log().warn("{}: stopping now, in frame {}; the checkpoints already written are kept",
+                 g_signals >= 2 ? "a second signal" : "the frame did not finish in time", frame + 1);
       status = "interrupted";
       exit_code = kExitInterrupted;
       break;
@@ -485,7 +497,7 @@ int run_scene(const RunOptions& options) {
     progress.update(frame, sim.time(), sim.steps(), sim.remeshes(), frame == last_frame);
   }
   const long long stepping_peak_bytes = peak_memory_bytes();  // before the final checkpoint
-  if (exit_code == 0 || (exit_code == kExitInterrupted && g_signals == 1)) {
+  if (exit_code == 0 || (exit_code == kExitInterrupted && g_signals == 1 && !stopped_in_frame)) {
     progress.finish();
     if (exit_code == kExitInterrupted) log().warn("interrupted: writing the checkpoint of frame {}", frame);
     write_checkpoint(frame);  // the run's end, or the frame finished after a signal

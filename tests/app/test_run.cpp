@@ -266,6 +266,30 @@ TEST_F(GooRestart, ASecondSignalStopsAtOnce) {
   EXPECT_TRUE(fs::is_empty(dir / "e/checkpoints"));
 }
 
+TEST_F(GooRestart, ASignalStopsAFrameThatWouldNeverEnd) {
+  // A frame a billion seconds long: the first signal's "finish the frame"
+  // would wait forever. The run stops 10 s after the signal, as a second
+  // signal would stop it: exit 130, the summary written, no partial frame.
+  const test::TempDir& dir = *dir_;
+  std::string endless = kDrop;
+  endless.replace(endless.find("\"fps\": 24"), std::string("\"fps\": 24").size(), "\"fps\": 1e-9");
+  dir.write("endless.json", endless);
+  GooChild child(dir / "endless.json", dir / "f");
+  ASSERT_TRUE(child.started());
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!fs::exists(dir / "f/frames/frame_00000.ply") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_TRUE(fs::exists(dir / "f/frames/frame_00000.ply"));
+  // Well inside frame 1 (a signal between frames stops the run at once).
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  const auto signalled = std::chrono::steady_clock::now();
+  child.signal(SIGTERM);
+  ASSERT_NO_FATAL_FAILURE(expect_interrupted(child, dir / "f"));
+  const double waited = std::chrono::duration<double>(std::chrono::steady_clock::now() - signalled).count();
+  EXPECT_GE(waited, 10.0);
+  EXPECT_FALSE(fs::exists(dir / "f/frames/frame_00001.ply"));
+}
+
 // Whoever reads goo's log may go away (a harness killed, `goo run | head`):
 // its log lines then fail (SIGPIPE ignored, EPIPE) instead of killing goo,
 // and a later SIGTERM still gets the checkpoint and the summary written.
