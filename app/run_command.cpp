@@ -509,7 +509,12 @@ int run_scene(const RunOptions& options) {
   nlohmann::json j;
   j["status"] = status;
   if (!failure.empty()) j["failure"] = failure;
-  j["scene"] = scene.source;
+  {
+    // Where the scene is, from anywhere (goo render finds it there).
+    std::error_code absolute_error;
+    const bool file = fs::is_regular_file(scene.source, absolute_error);
+    j["scene"] = file ? fs::absolute(scene.source, absolute_error).lexically_normal().string() : scene.source;
+  }
   j["integrator"] = std::string(to_string(scene.integrator));
   j["frames"] = frame;
   j["fps"] = scene.output.fps;

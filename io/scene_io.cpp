@@ -639,7 +639,11 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::f
   Scene s;
   s.source = source;
   s.text = std::string(text);
-  s.base_folder = base_folder.string();
+  // Absolute: a checkpoint stores it, and a run resumed from another folder
+  // must find the scene's meshes where the first one did.
+  std::error_code absolute_error;
+  const std::filesystem::path absolute = std::filesystem::absolute(base_folder, absolute_error);
+  s.base_folder = (absolute_error ? base_folder : absolute.lexically_normal()).string();
   Node root(doc, "", source);
   root.expect_object();
   if (auto v = root.get("version")) {

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "core/primitives.h"
 #include "io/surface_mesh_io.h"
 #include "tests/app/run_goo.h"
 
@@ -401,6 +402,22 @@ TEST(GooRun, AResumedRunGoesOnInItsOwnFolderAndNeverIntoAnothers) {
   const CommandResult own = goo(args({"run --resume", quoted(dir / "a/checkpoints/frame_00002.h5"), "--frames 3 --quiet"}));
   ASSERT_EQ(own.exit_code, 0) << own.err;
   EXPECT_TRUE(fs::exists(dir / "a/frames/frame_00003.ply"));
+}
+
+TEST(GooRun, AResumeFindsTheScenesMeshesFromAnyFolder) {
+  // The scene given by a relative path, its mesh relative to it; the resume
+  // runs from another folder: the checkpoint's base folder is absolute.
+  test::TempDir dir;
+  io::write_surface_mesh(dir / "cube.off", make_box({0.1, 0.1, 0.1}, 3));
+  std::string scene = kDrop;
+  scene.replace(scene.find("\"primitive\": {\"type\": \"box\", \"size\": [0.1, 0.1, 0.1], \"subdivisions\": 4}"),
+                std::string("\"primitive\": {\"type\": \"box\", \"size\": [0.1, 0.1, 0.1], \"subdivisions\": 4}").size(),
+                "\"mesh\": \"cube.off\"");
+  dir.write("cube.json", scene);
+  ASSERT_EQ(goo("run cube.json --frames 2 --out run --quiet", fmt::format("cd {} &&", quoted(dir.path()))).exit_code, 0);
+  const CommandResult resumed = goo(args({"run --resume", quoted(dir / "run/checkpoints/frame_00002.h5"), "--frames 3 --quiet"}), "cd / &&");
+  EXPECT_EQ(resumed.exit_code, 0) << resumed.err;
+  EXPECT_TRUE(fs::exists(dir / "run/frames/frame_00003.ply"));
 }
 
 TEST(GooRun, FifosDevicesAndFoldersAreRefusedNotRead) {
