@@ -10,9 +10,21 @@
 #include <string>
 #include <string_view>
 
+#include "core/tet_mesh.h"
+
 #include "core/error.h"
 
 namespace goo::test {
+
+/// One tetrahedron: the origin and the three points `size` along each axis.
+inline TetMesh corner_tetrahedron(double size = 1.0) {
+  TetMesh mesh;
+  mesh.positions.resize(4, 3);
+  mesh.positions << 0, 0, 0, size, 0, 0, 0, size, 0, 0, 0, size;
+  mesh.tets.resize(1, 4);
+  mesh.tets << 0, 1, 2, 3;
+  return mesh;
+}
 
 /// Expects every entry of `actual` within `tolerance` of `expected`, and
 /// names the first index that is not (libigl's test_common.h does the same).

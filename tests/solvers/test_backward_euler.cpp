@@ -34,12 +34,7 @@ Body box(const Material& m, int cells, double size = 0.3) {
 /// One element, deformed at random (possibly inverted), with a random
 /// volume-preserving plastic state.
 Body random_element(const Material& m, std::mt19937& rng, double amount) {
-  TetMesh mesh;
-  mesh.positions.resize(4, 3);
-  mesh.positions << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
-  mesh.tets.resize(1, 4);
-  mesh.tets << 0, 1, 2, 3;
-  Body body = make_body(mesh, m);
+  Body body = make_body(test::corner_tetrahedron(), m);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (Index n = 0; n < 4; ++n)
     for (int k = 0; k < 3; ++k) body.positions(n, k) += amount * u(rng);

@@ -34,12 +34,7 @@ double lowest(const Body& body) { return body.surface().vertices.col(2).minCoeff
 
 /// One element, one embedded vertex with generic barycentric coordinates.
 Body single_element(const Eigen::Vector4d& b) {
-  TetMesh mesh;
-  mesh.positions.resize(4, 3);
-  mesh.positions << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
-  mesh.tets.resize(1, 4);
-  mesh.tets << 0, 1, 2, 3;
-  Body body = make_body(mesh, gel());
+  Body body = make_body(test::corner_tetrahedron(), gel());
   body.embedding.parent = {0};
   body.embedding.bary = b.transpose();
   return body;

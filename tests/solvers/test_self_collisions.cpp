@@ -13,6 +13,7 @@
 #include "io/scene_io.h"
 #include "solvers/remesh.h"
 #include "solvers/simulation.h"
+#include "tests/common/test_common.h"
 
 namespace goo {
 namespace {
@@ -171,12 +172,7 @@ TEST(SelfCollisions, SheetsInOneElementDoNotFlingItsNodes) {
   // tenth of the missing thickness; the 15 pairs (6 vertex–triangle,
   // 9 edge–edge) then move no node by more than 15 × 2 × 0.1 × the thickness.
   const double thickness = 1e-4, gap = 5e-5;
-  TetMesh tet;
-  tet.positions.resize(4, 3);
-  tet.positions << 0, 0, 0, 0.1, 0, 0, 0, 0.1, 0, 0, 0, 0.1;
-  tet.tets.resize(1, 4);
-  tet.tets << 0, 1, 2, 3;
-  Body body = make_body(tet, gel());
+  Body body = make_body(test::corner_tetrahedron(0.1), gel());
   body.masses[3] *= 0.05;
   const double z = 0.01;
   Points corners(6, 3);
