@@ -472,9 +472,14 @@ int run_scene(const RunOptions& options) {
     bool completed = false;
     try {
       completed = sim.advance_to((frame + 1) / scene.output.fps, stop_now);
-    } catch (const NumericalFailure& e) {
+    } catch (const std::exception& e) {
+      // The input passed every check before the first step: what fails
+      // while stepping (a NaN, a runaway node, a time step that underflows
+      // to zero) is a numerical failure, diagnosed, with the summary written.
+      const bool diagnosed = dynamic_cast<const NumericalFailure*>(&e) != nullptr;
+      if (!diagnosed && dynamic_cast<const Error*>(&e) == nullptr) throw;  // a bug: exit 1
       progress.finish();
-      failure = e.what();
+      failure = diagnosed ? e.what() : fmt::format("numerical failure in frame {} (t = {:.6g} s): {}", frame + 1, sim.time(), e.what());
       log().error("{}", failure);
       log().error("the last good checkpoint is kept in {}", (folder / "checkpoints").string());
       status = "failed";

@@ -464,6 +464,23 @@ TEST(GooRun, ANumericalFailureIsDiagnosedAndKeepsTheLastGoodCheckpoint) {
   EXPECT_EQ(nlohmann::json::parse(slurp(dir / "out/summary.json"))["status"], "failed");
 }
 
+TEST(GooRun, AFailureWhileSteppingIsANumericalFailureWithItsSummary) {
+  // A density the validator accepts but double precision cannot step (the
+  // wave speed overflows, the time step underflows to zero): exit 3, the
+  // summary written, not exit 2 after frame 0.
+  test::TempDir dir;
+  std::string scene = kDrop;
+  scene.replace(scene.find("\"min_mass_fraction\": 0.05"), std::string("\"min_mass_fraction\": 0.05").size(),
+                "\"min_mass_fraction\": 0.05, \"density\": 5e-324");
+  dir.write("light.json", scene);
+  const CommandResult r = goo(args({"run", quoted(dir / "light.json"), "--frames 1 --out", quoted(dir / "out")}));
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("numerical failure"));
+  const auto summary = nlohmann::json::parse(slurp(dir / "out/summary.json"));
+  EXPECT_EQ(summary["status"], "failed");
+  EXPECT_THAT(summary["failure"].get<std::string>(), HasSubstr("time step"));
+}
+
 TEST(GooRun, WithoutASceneRunsTheBuiltInDemo) {
   test::TempDir dir;
   const CommandResult run = goo(args({"run --frames 1 --out", quoted(dir / "demo")}));
