@@ -11,9 +11,9 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <regex>
 #include <set>
 
+#include "app/numbered_name.h"
 #include "core/error.h"
 #include "io/atomic_file.h"
 #include "io/run_file.h"
@@ -71,14 +71,12 @@ std::map<int, fs::path> list_frames(const fs::path& folder) {
   const fs::path dir = folder / "frames";
   std::error_code error;
   if (!fs::is_directory(dir, error)) return frames;
-  static const std::regex name(R"(frame_(\d{5,})\.(ply|obj))");
   for (const auto& entry : fs::directory_iterator(dir, error)) {
-    std::smatch m;
     const std::string file = entry.path().filename().string();
-    if (!std::regex_match(file, m, name)) continue;
-    const int frame = std::stoi(m[1].str());
-    auto [it, inserted] = frames.emplace(frame, entry.path());
-    if (!inserted && m[2].str() == "ply") it->second = entry.path();
+    const auto ply = numbered_name(file, "frame_", ".ply"), obj = numbered_name(file, "frame_", ".obj");
+    if (!ply && !obj) continue;
+    auto [it, inserted] = frames.emplace(static_cast<int>(ply ? *ply : *obj), entry.path());
+    if (!inserted && ply) it->second = entry.path();
   }
   return frames;
 }
@@ -111,14 +109,15 @@ Scene find_scene(const fs::path& run, const std::optional<std::string>& given) {
 
 std::pair<int, int> parse_size(const std::string& text, int width, int height) {
   if (text.empty()) return {width, height};
-  static const std::regex form(R"((\d{1,5})x(\d{1,5}))");
-  std::smatch m;
-  if (!std::regex_match(text, m, form))
+  const std::size_t x = text.find('x');
+  const auto w_part = x == std::string::npos ? std::nullopt : numbered_name(text.substr(0, x), "", "", 1);
+  const auto h_part = x == std::string::npos ? std::nullopt : numbered_name(text.substr(x + 1), "", "", 1);
+  if (!w_part || !h_part)
     throw Error(fmt::format("--size must be WIDTHxHEIGHT in pixels (say 960x720), got '{}'", text));
-  const int w = std::stoi(m[1].str()), h = std::stoi(m[2].str());
+  const long w = *w_part, h = *h_part;
   if (w < 16 || h < 16 || w > 8192 || h > 8192)
     throw Error(fmt::format("--size: each side must be 16 to 8192 pixels, got {}x{}", w, h));
-  return {w, h};
+  return {static_cast<int>(w), static_cast<int>(h)};
 }
 
 /// A checker square of 1, 2 or 5 × 10^k m, about a tenth of the size.

@@ -1,5 +1,4 @@
 #include "app/run_command.h"
-#include "app/render_command.h"
 
 #include <fmt/format.h>
 #include <tbb/global_control.h>
@@ -12,10 +11,11 @@
 #include <cstdio>
 #include <fstream>
 #include <memory>
-#include <regex>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "app/numbered_name.h"
+#include "app/render_command.h"
 #include "core/error.h"
 #include "core/log.h"
 #include "io/atomic_file.h"
@@ -255,11 +255,11 @@ std::optional<fs::path> run_folder_of(const fs::path& checkpoint) {
 
 /// The files a goo run writes into its folder (docs/running.md).
 bool is_run_file(const fs::path& relative) {
-  static const std::regex frame(R"(frames/(frame|tets)_\d{5,}\.(ply|obj|vtk))");
-  static const std::regex checkpoint(R"(checkpoints/frame_\d{5,}\.h5)");
-  const std::string name = relative.generic_string();
-  return name == "run.h5" || name == "run.xdmf" || name == "summary.json" || std::regex_match(name, frame) ||
-         std::regex_match(name, checkpoint);
+  const std::string folder = relative.parent_path().generic_string(), name = relative.filename().string();
+  if (folder.empty()) return name == "run.h5" || name == "run.xdmf" || name == "summary.json";
+  if (folder == "checkpoints") return numbered_name(name, "frame_", ".h5").has_value();
+  return folder == "frames" && (numbered_name(name, "frame_", ".ply") || numbered_name(name, "frame_", ".obj") ||
+                                numbered_name(name, "tets_", ".vtk"));
 }
 
 std::vector<fs::path> run_files(const fs::path& folder) {
