@@ -324,25 +324,38 @@ VolumeProjectionStats VolumeProjection::project(Body& body, const Points& start,
   }
   Eigen::VectorXd total = Eigen::VectorXd::Zero(nn);
   double last_error = 0.0;
+  bool chord = true, restarted = false;
   for (int newton = 0;; ++newton) {
     volumes(body, body.positions);
     for (Index e = 0; e < ne; ++e) volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0;
     quarter_node_sums(body.incidence, volume_, error_);
     const double error = max_relative(error_, node_rest_, &active_);
     if (newton == 0) stats.error_before = error;
-    if (newton > 0 && !(error < last_error || error <= settings_.tolerance)) {
-      // The last correction did not help (an inconsistent or ill-posed
-      // system): it is undone, and the projection stops where it was best.
+    if (newton > 0 && !restarted && !(error < last_error || error <= settings_.tolerance)) {
+      // The last correction did not help: it is undone. A chord iteration
+      // (G at xⁿ) stalls when the step moved the nodes far; Newton's
+      // method takes over from the best point (G there). A Newton
+      // iteration that does not help means an inconsistent or ill-posed
+      // system: the projection stops where it was best.
       body.positions += direction_;
       body.velocities += direction_ / dt;
       total -= lambda_;
+      if (chord && newton < settings_.max_newton_iterations) {
+        chord = false;
+        restarted = true;
+        prepare(body, body.positions, fixed);
+        if (scale != 1.0) rest_ *= scale;
+        continue;
+      }
       stats.error = last_error;
       break;
     }
+    restarted = false;
     stats.error = last_error = error;
     if (error <= settings_.tolerance || newton == settings_.max_newton_iterations) break;
     stats.newton_iterations = newton + 1;
-    if (newton == kChordIterations) {
+    if (chord && newton == kChordIterations) {
+      chord = false;
       // Still far after the chord iterations (a large step): Newton's
       // method from here, G at the current positions (the impulses then
       // exert a torque about xⁿ of the order of the correction).
