@@ -78,6 +78,7 @@ struct Scene {
   std::optional<HalfSpace> ground;       ///< a floor under every object
   std::vector<Obstacle> obstacles;
   std::vector<SceneObject> objects;
+  BodyCollisionSettings body_collisions;  ///< between objects (two or more)
   RemeshSettings remesh;
   OutputSettings output;
   int checkpoint_every_frames = 24;  ///< 0: only when the run ends or is interrupted

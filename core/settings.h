@@ -74,6 +74,17 @@ struct SelfCollisionSettings {
   double friction = 0.0;  ///< Coulomb coefficient between sheets of the surface
 };
 
+/// Collisions between the surfaces of different bodies (W&T sec. 4), with
+/// two objects or more: resolved in one stage with each body's
+/// self-collisions, all bodies stepping together.
+struct BodyCollisionSettings {
+  bool enabled = true;
+  /// Pairs of two bodies are kept at least this far apart, m; 0: the
+  /// smallest of the bodies' self-collision thicknesses.
+  double thickness = 0.0;
+  double friction = 0.0;  ///< Coulomb coefficient between two bodies
+};
+
 /// The default thickness, as a fraction of the element size: far below
 /// anything visible, far above the round-off of the positions.
 inline constexpr double kSelfCollisionThicknessFraction = 1e-3;

@@ -683,6 +683,26 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::f
   for (std::size_t i = 0; i < s.objects.size(); ++i)
     if (!names.insert(s.objects[i].name).second)
       objects.element(i).fail(fmt::format("repeats the object name '{}'", s.objects[i].name));
+  if (auto c = root.get("collisions_between_bodies")) {
+    // true, false, or {"enabled", "thickness", "friction"}
+    BodyCollisionSettings& bc = s.body_collisions;
+    if (c->value().is_boolean()) {
+      bc.enabled = c->boolean();
+    } else {
+      optional(*c, "enabled", bc.enabled, [](const Node& v) { return v.boolean(); });
+      optional(*c, "thickness", bc.thickness, [](const Node& v) { return v.positive(); });
+      optional(*c, "friction", bc.friction, [](const Node& v) { return v.non_negative(); });
+      double smallest = std::numeric_limits<double>::infinity();
+      for (const SceneObject& o : s.objects) {
+        const Points& x = o.surface ? o.surface->vertices : o.tet_mesh->positions;
+        smallest = std::min(smallest, (x.colwise().maxCoeff() - x.colwise().minCoeff()).maxCoeff());
+      }
+      if (bc.thickness >= 0.1 * smallest)
+        c->at("thickness").fail(fmt::format(
+            "must be below a tenth of the smallest object's size ({:.4g} m across), got {}", smallest, bc.thickness));
+      c->finish();
+    }
+  }
   if (auto r = root.get("remesh")) read_remesh(*r, s.remesh);
   if (auto o = root.get("output")) read_output(*o, s.output);
   if (auto c = root.get("checkpoint")) {

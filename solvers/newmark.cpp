@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "core/error.h"
 #include "solvers/stepping.h"
@@ -152,13 +153,24 @@ Index NewmarkIntegrator::enforce_ground(Body& body) {
   return constraints_.ground ? goo::enforce_ground(body, *constraints_.ground, constrained_) : 0;
 }
 
-StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
-  times_ = StepTimes{};
+double NewmarkIntegrator::next_time_step(Body& body, double max_dt) {
   ensure_forces(body);
-  StepStatus status;
-  StageTimer timer;
   const double dt = std::min(stable_time_step(body), max_dt);
   if (!(dt > 0.0)) throw Error(fmt::format("newmark: non-positive time step {} s", dt));
+  return dt;
+}
+
+StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
+  begin_step(body, next_time_step(body, max_dt));
+  return finish_step(body);
+}
+
+void NewmarkIntegrator::begin_step(Body& body, double dt) {
+  ensure_forces(body);
+  pending_ = StepStatus{};
+  StepStatus& status = pending_;
+  step_dt_ = dt;
+  StageTimer timer;
   const double h = 0.5 * dt;
   const double t_next = time_ + dt;
 
@@ -196,6 +208,16 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
     status.self_collisions =
         self_collisions_.resolve_step(body, x_start, dt, constrained_, *constraints_.self_collisions);
   times_.self_collisions += timer.lap();
+}
+
+StepStatus NewmarkIntegrator::finish_step(Body& body) {
+  StepStatus status = std::exchange(pending_, StepStatus{});
+  StageTimer timer;
+  const double dt = step_dt_;
+  const double h = 0.5 * dt;
+  const double t_next = time_ + dt;
+  const bool incompressible = body.material.incompressible;
+  const auto& obstacles = constraints_.obstacles;
 
   // 3. The one elastic force evaluation, at xⁿ⁺¹, with plastic flow.
   evaluate_forces(body, dt);
@@ -203,6 +225,7 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
   timer.lap();  // counted by evaluate_forces
 
   // 4. vⁿ⁺¹ = v½ + Δt/2 M⁻¹ (f_e(xⁿ⁺¹) + f_d(xⁿ⁺¹, vⁿ⁺¹) + M g).
+  Points rhs;
   apply_gravity_and_forces(body, body.velocities, h, rhs);
   for (const auto& motion : constraints_.prescribed) {
     // The path's velocity at t_next, by a central difference over the step.
@@ -225,7 +248,7 @@ StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
 
   time_ = t_next;
   status.dt = dt;
-  status.times = times_;
+  status.times = std::exchange(times_, StepTimes{});
   return status;
 }
 

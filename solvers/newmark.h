@@ -39,6 +39,15 @@ class NewmarkIntegrator {
   /// strain-rate bound and max_time_step.
   StepStatus step(Body& body, double max_dt);
 
+  /// The same step in two halves, for bodies stepped together (collisions
+  /// between bodies act between them): next_time_step gives the step this
+  /// body would take (at most max_dt); begin_step moves it to xⁿ⁺¹ with v½,
+  /// contacts and its own self-collisions included; finish_step evaluates
+  /// the forces at xⁿ⁺¹ and completes vⁿ⁺¹. step = the three in a row.
+  double next_time_step(Body& body, double max_dt);
+  void begin_step(Body& body, double dt);
+  StepStatus finish_step(Body& body);
+
   /// Steps until the time reaches t_end exactly; returns the steps taken.
   int advance_to(Body& body, double t_end);
 
@@ -74,6 +83,8 @@ class NewmarkIntegrator {
   EmbeddedTension tension_;
   Points forces_;  // f_e at the current positions
   StepTimes times_;  // this step's, by stage
+  StepStatus pending_;  // the step begun, until finished
+  double step_dt_ = 0.0;
   bool have_forces_ = false;
   double time_ = 0.0;
   std::vector<unsigned char> constrained_;

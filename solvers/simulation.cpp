@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include "core/error.h"
@@ -151,13 +152,31 @@ Simulation::Simulation(const Scene& scene) : scene_(scene) {
     for (const Index n : b.pinned) body.velocities.row(n).setZero();
     bodies_.push_back(std::move(b));
   }
+  together_ = bodies_.size() > 1 && scene_.body_collisions.enabled;
   steppers_.resize(bodies_.size());
   for (std::size_t i = 0; i < bodies_.size(); ++i) attach(i, time_);
 }
 
 Simulation::~Simulation() = default;
 
+SelfCollisionParameters Simulation::self_collision_parameters(std::size_t i) const {
+  const SimulationBody& b = bodies_[i];
+  SelfCollisionParameters self;
+  self.friction = b.self_collisions.friction;
+  self.thickness = b.self_collisions.thickness;
+  if (!(self.thickness > 0.0)) {
+    double size = b.h;
+    if (!b.lattice) {  // a tetrahedral mesh: its mean rest edge length, from the mean volume of a regular tet
+      const double mean_volume = b.body.rest_volumes.sum() / std::max<Index>(1, b.body.num_elements());
+      size = std::cbrt(6.0 * std::sqrt(2.0) * mean_volume);
+    }
+    self.thickness = kSelfCollisionThicknessFraction * size;
+  }
+  return self;
+}
+
 void Simulation::attach(std::size_t i, double time) {
+  joint_stale_ = true;
   Constraints constraints;
   constraints.pinned = bodies_[i].pinned;
   constraints.obstacles = scene_.obstacles;
@@ -167,20 +186,8 @@ void Simulation::attach(std::size_t i, double time) {
     constraints.obstacles.push_back(Obstacle{"ground", make_half_space(scene_.ground->normal, scene_.ground->offset),
                                              RigidMotion{}, scene_.ground->friction});
   }
-  if (const SimulationBody& b = bodies_[i]; b.self_collisions.enabled) {
-    SelfCollisionParameters self;
-    self.friction = b.self_collisions.friction;
-    self.thickness = b.self_collisions.thickness;
-    if (!(self.thickness > 0.0)) {
-      double size = b.h;
-      if (!b.lattice) {  // a tetrahedral mesh: its mean rest edge length, from the mean volume of a regular tet
-        const double mean_volume = b.body.rest_volumes.sum() / std::max<Index>(1, b.body.num_elements());
-        size = std::cbrt(6.0 * std::sqrt(2.0) * mean_volume);
-      }
-      self.thickness = kSelfCollisionThicknessFraction * size;
-    }
-    constraints.self_collisions = self;
-  }
+  // Bodies stepped together meet their own surface in the joint stage.
+  if (bodies_[i].self_collisions.enabled && !together_) constraints.self_collisions = self_collision_parameters(i);
   auto stepper = std::make_unique<Stepper>();
   if (scene_.integrator == IntegratorKind::newmark) {
     NewmarkSettings settings = scene_.newmark;
@@ -232,40 +239,183 @@ void Simulation::check_state(std::size_t i) const {
       steps_, t, last_dt_, bodies_[i].name, worst, corner / 4, what));
 }
 
+void Simulation::record(const StepStatus& status) {
+  last_dt_ = status.dt;
+  times_.step += status.times;
+  self_collisions_ += status.self_collisions;
+  volume_total_ += status.volume;
+  volume_frame_ += status.volume;
+  ++steps_;
+}
+
+void Simulation::record(const NewtonStatus& status) {
+  last_dt_ = status.dt;
+  times_.step += status.times;
+  self_collisions_ += status.self_collisions;
+  volume_total_ += status.volume;
+  volume_frame_ += status.volume;
+  ++steps_;
+}
+
 void Simulation::step_body(std::size_t i, double max_dt) {
   SimulationBody& b = bodies_[i];
   Stepper& s = *steppers_[i];
   auto start = Clock::now();
   if (s.newmark) {
-    const StepStatus status = s.newmark->step(b.body, max_dt);
-    last_dt_ = status.dt;
-    times_.step += status.times;
-    self_collisions_ += status.self_collisions;
-    volume_total_ += status.volume;
-    volume_frame_ += status.volume;
+    record(s.newmark->step(b.body, max_dt));
   } else {
     try {
-      const NewtonStatus status = s.backward_euler->step(b.body, max_dt);
-      last_dt_ = status.dt;
-      times_.step += status.times;
-      self_collisions_ += status.self_collisions;
-      volume_total_ += status.volume;
-      volume_frame_ += status.volume;
+      record(s.backward_euler->step(b.body, max_dt));
     } catch (const Error& e) {  // Newton failed even at the smallest Δt: not bad input
       throw NumericalFailure(fmt::format("numerical failure at step {} (t = {:.6g} s): body '{}': {}; try a smaller "
                                          "backward_euler.time_step or more max_newton_iterations",
                                          steps_ + 1, s.backward_euler->time(), b.name, e.what()));
     }
   }
-  ++steps_;
   times_.integrate += seconds_since(start);
 
   start = Clock::now();
   check_state(i);
   times_.safety += seconds_since(start);
+  remesh_if_due(i);
+}
 
+void Simulation::step_together(double max_dt) {
+  const auto start = Clock::now();
+  const std::size_t count = bodies_.size();
+  // One Δt for all: the smallest any body needs (Newmark's CFL and strain
+  // bounds; backward Euler's fixed step, the same for every body).
+  double dt = max_dt;
+  for (std::size_t i = 0; i < count; ++i) {
+    Stepper& s = *steppers_[i];
+    dt = std::min(dt, s.newmark ? s.newmark->next_time_step(bodies_[i].body, max_dt)
+                                : std::min(scene_.backward_euler.time_step, max_dt));
+  }
+  const double t0 = steppers_[0]->time();
+  std::vector<Points> x_start(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    SimulationBody& b = bodies_[i];
+    Stepper& s = *steppers_[i];
+    x_start[i] = b.body.positions;
+    if (s.newmark) {
+      s.newmark->begin_step(b.body, dt);
+      continue;
+    }
+    // Backward Euler halves a step Newton cannot converge; the body then
+    // takes several to the common time (the joint stage sees their sum).
+    double t = s.backward_euler->time();
+    try {
+      step_until(t, t0 + dt, [&](double left) {
+        const NewtonStatus status = s.backward_euler->step(b.body, left);
+        t = s.backward_euler->time();
+        record(status);
+      });
+    } catch (const Error& e) {
+      throw NumericalFailure(fmt::format("numerical failure at step {} (t = {:.6g} s): body '{}': {}; try a smaller "
+                                         "backward_euler.time_step or more max_newton_iterations",
+                                         steps_ + 1, s.backward_euler->time(), b.name, e.what()));
+    }
+    s.backward_euler->set_time(t0 + dt);
+  }
+  const auto joint = Clock::now();
+  collide_bodies(x_start, dt);
+  times_.step.self_collisions += seconds_since(joint);
+  for (std::size_t i = 0; i < count; ++i)
+    if (Stepper& s = *steppers_[i]; s.newmark) {
+      record(s.newmark->finish_step(bodies_[i].body));
+      s.newmark->set_time(t0 + dt);  // every clock alike, to the bit
+    }
+  last_dt_ = dt;
+  times_.integrate += seconds_since(start);
+  const auto checks = Clock::now();
+  for (std::size_t i = 0; i < count; ++i) check_state(i);
+  times_.safety += seconds_since(checks);
+  for (std::size_t i = 0; i < count; ++i) remesh_if_due(i);
+}
+
+void Simulation::collide_bodies(const std::vector<Points>& x_start, double dt) {
+  const std::size_t count = bodies_.size();
+  if (joint_stale_) {
+    // The bodies' elements and surfaces side by side, ids offset.
+    Index nodes = 0, elements = 0, vertices = 0, triangles = 0;
+    for (const SimulationBody& b : bodies_) {
+      nodes += b.body.num_nodes(), elements += b.body.num_elements();
+      vertices += b.body.embedding.num_vertices(), triangles += static_cast<Index>(b.body.surface_triangles.rows());
+    }
+    joint_ = Body{};
+    joint_.positions.resize(nodes, 3);
+    joint_.masses.resize(nodes);
+    joint_.tets.resize(elements, 4);
+    joint_.surface_triangles.resize(triangles, 3);
+    joint_.embedding.parent.resize(at(vertices));
+    joint_.embedding.bary.resize(vertices, 4);
+    CollisionGroups groups;
+    groups.vertex_group.resize(at(vertices));
+    groups.element_group.resize(at(elements));
+    groups.between_friction = scene_.body_collisions.friction;
+    node_offset_.assign(count, 0);
+    Index n0 = 0, e0 = 0, v0 = 0, t0 = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      const Body& body = bodies_[i].body;
+      const auto group = static_cast<std::int32_t>(i);
+      node_offset_[i] = n0;
+      joint_.tets.middleRows(e0, body.num_elements()) = body.tets.array() + n0;
+      const auto nt = static_cast<Index>(body.surface_triangles.rows());
+      joint_.surface_triangles.middleRows(t0, nt) = body.surface_triangles.array() + v0;
+      const Index nv = body.embedding.num_vertices();
+      for (Index v = 0; v < nv; ++v) joint_.embedding.parent[at(v0 + v)] = body.embedding.parent[at(v)] + e0;
+      joint_.embedding.bary.middleRows(v0, nv) = body.embedding.bary;
+      std::fill_n(groups.vertex_group.begin() + v0, nv, group);
+      std::fill_n(groups.element_group.begin() + e0, body.num_elements(), group);
+      groups.self_pairs.push_back(bodies_[i].self_collisions.enabled ? 1 : 0);
+      groups.self_friction.push_back(bodies_[i].self_collisions.friction);
+      n0 += body.num_nodes(), e0 += body.num_elements(), v0 += nv, t0 += nt;
+    }
+    joint_collisions_.set_groups(std::move(groups));
+    joint_stale_ = false;
+  }
+  // One thickness for the stage: the smallest any pair asks for.
+  SelfCollisionParameters parameters;
+  parameters.thickness = scene_.body_collisions.thickness;
+  double smallest = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < count; ++i) {
+    const double own = self_collision_parameters(i).thickness;
+    smallest = std::min(smallest, own);
+  }
+  if (!(parameters.thickness > 0.0)) parameters.thickness = smallest;
+  for (std::size_t i = 0; i < count; ++i)
+    if (bodies_[i].self_collisions.enabled)
+      parameters.thickness = std::min(parameters.thickness, self_collision_parameters(i).thickness);
+
+  const Index nodes = joint_.num_nodes();
+  Points x0(nodes, 3), d(nodes, 3);
+  std::vector<std::uint8_t> fixed(at(nodes), 0);
+  for (std::size_t i = 0; i < count; ++i) {
+    const Body& body = bodies_[i].body;
+    const Index n0 = node_offset_[i];
+    x0.middleRows(n0, body.num_nodes()) = x_start[i];
+    d.middleRows(n0, body.num_nodes()) = body.positions - x_start[i];
+    joint_.masses.segment(n0, body.num_nodes()) = body.masses;
+    for (const Index n : bodies_[i].pinned) fixed[at(n0 + n)] = 1;
+  }
+  const Points before = d;
+  self_collisions_ += joint_collisions_.resolve(joint_, x0, d, fixed, parameters);
+  for (std::size_t i = 0; i < count; ++i) {
+    Body& body = bodies_[i].body;
+    const Index n0 = node_offset_[i];
+    for (Index n = 0; n < body.num_nodes(); ++n) {
+      if (d.row(n0 + n) == before.row(n0 + n)) continue;
+      body.positions.row(n) = x0.row(n0 + n) + d.row(n0 + n);
+      body.velocities.row(n) += (d.row(n0 + n) - before.row(n0 + n)) / dt;
+    }
+  }
+}
+
+void Simulation::remesh_if_due(std::size_t i) {
+  SimulationBody& b = bodies_[i];
+  Stepper& s = *steppers_[i];
   if (!b.lattice || !scene_.remesh.enabled) return;
-  start = Clock::now();
+  auto start = Clock::now();
   const bool due = remesh_due(b.body, b.body.positions, b.body.embedding.bary, scene_.remesh.thresholds);
   times_.remesh_check += seconds_since(start);
   if (!due) return;
@@ -323,6 +473,21 @@ void Simulation::step_body(std::size_t i, double max_dt) {
 }
 
 bool Simulation::advance_to(double t_end, const std::function<bool()>& stop) {
+  if (together_) {
+    double t = steppers_[0]->time();
+    bool stopped = false;
+    step_until(
+        t, t_end,
+        [&](double max_dt) {
+          step_together(max_dt);
+          t = steppers_[0]->time();
+        },
+        [&] { return stopped = stop && stop(); });
+    if (stopped) return false;
+    for (auto& s : steppers_) s->set_time(t_end);
+    time_ = t_end;
+    return true;
+  }
   for (std::size_t i = 0; i < bodies_.size(); ++i) {
     double t = steppers_[i]->time();
     bool stopped = false;

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/body.h"
+#include "core/contact/self_collisions.h"
 #include "core/scene.h"
 #include "core/state_record.h"
 #include "core/volume_projection.h"
@@ -18,6 +19,9 @@
 #include "solvers/stepping.h"
 
 namespace goo {
+
+struct StepStatus;
+struct NewtonStatus;
 
 /// A run that went numerically wrong (a non-finite value, a node faster than
 /// the scene's limits.max_speed). Not bad input: the message is a diagnosis
@@ -70,7 +74,8 @@ class Simulation {
   Simulation& operator=(const Simulation&) = delete;
 
   /// Steps every body until t_end (each body on its own time steps, landing
-  /// exactly on t_end), re-meshing a lattice body after a step that trips
+  /// exactly on t_end; bodies that collide with each other on common
+  /// steps, the smallest any of them needs), re-meshing a lattice body after a step that trips
   /// the trigger. `stop` is asked after each step; true abandons the advance
   /// (returns false; the state is then between steps). Throws
   /// NumericalFailure when a step produces a non-finite or runaway state.
@@ -111,12 +116,29 @@ class Simulation {
  private:
   struct Stepper;
   void attach(std::size_t i, double time);  ///< (re)builds body i's constraints and integrator, its clock at `time`
+  /// One step of body i alone (its own Δt, at most max_dt), then checks and a re-mesh if due.
   void step_body(std::size_t i, double max_dt);
+  /// One step of every body together (collisions between bodies): the
+  /// smallest Δt any body needs, then checks and re-meshes.
+  void step_together(double max_dt);
+  /// Collisions between bodies (and within each) over the common step from
+  /// x_start to the bodies' positions (Bridson et al. 2002, as one surface).
+  void collide_bodies(const std::vector<Points>& x_start, double dt);
   void check_state(std::size_t i) const;
+  void remesh_if_due(std::size_t i);
+  void record(const StepStatus& status);
+  void record(const NewtonStatus& status);
+  /// Body i's self-collision parameters (thickness resolved).
+  [[nodiscard]] SelfCollisionParameters self_collision_parameters(std::size_t i) const;
 
   Scene scene_;  // settings, obstacles and ground (meshes of objects dropped)
   std::vector<SimulationBody> bodies_;
   std::vector<std::unique_ptr<Stepper>> steppers_;
+  bool together_ = false;  ///< bodies collide with each other: common steps, one collision stage
+  SelfCollisions joint_collisions_;  // the stage over all bodies' surfaces
+  Body joint_;  // every body's elements, masses and surface, concatenated (positions unused)
+  std::vector<Index> node_offset_;  // per body, its first node in joint_
+  bool joint_stale_ = true;  // a body was re-meshed or loaded: joint_ and the groups rebuilt
   double time_ = 0.0;
   double last_dt_ = 0.0;
   std::int64_t steps_ = 0;

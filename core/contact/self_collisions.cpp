@@ -125,6 +125,17 @@ void rigidify(const Body& body, const Points& x0, Points& d, const std::vector<s
 
 }  // namespace
 
+void SelfCollisions::set_groups(std::optional<CollisionGroups> groups) {
+  groups_ = std::move(groups);
+  waiting_.clear();
+  list_valid_ = false;  // the list holds only the pairs the groups want
+}
+
+double SelfCollisions::friction(const Pair& pair, double own) const {
+  if (!groups_) return own;
+  return within(pair) ? groups_->self_friction[at(group(pair.vertices))] : groups_->between_friction;
+}
+
 bool SelfCollisions::update_edges(const Triangles& triangles) {
   if (triangles.rows() == triangles_.rows() && triangles == triangles_) return false;
   triangles_ = triangles;
@@ -211,6 +222,7 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
   // from where it was (after the common translation).
   const std::vector<std::array<Index, 2>> triangle_pairs = overlapping_pairs(tb);
   auto keep = [&](PairKind kind, const std::array<Index, 4>& v, double& distance) {
+    if (groups_ && within(v) && !groups_->self_pairs[at(group(v))]) return false;  // that body's self-collisions are off
     distance = ccd::closest(kind, gather(xs0, v)).distance;
     return distance <= kReported * thickness + reach(kind, v, margin_);
   };
@@ -269,6 +281,8 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
                         if (only && !((*only)[at(p.vertices[0])] || (*only)[at(p.vertices[1])] ||
                                       (*only)[at(p.vertices[2])] || (*only)[at(p.vertices[3])]))
                           continue;
+                        // A body turning an inverted element back waits, alone.
+                        if (!waiting_.empty() && within(p) && waiting_[at(group(p.vertices))]) continue;
                         // Still as far apart as the build found them, less what the
                         // vertices have drifted since: beyond twice the thickness all
                         // step, where continuous detection reports nothing.
@@ -376,7 +390,12 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
                         inverted[at(e)] = (volume(0.0) <= 0.0 || volume(1.0) <= 0.0) ? 1 : 0;
                       }
                     });
-  if (std::find(inverted.begin(), inverted.end(), 1) != inverted.end()) {
+  if (groups_) {  // per body: only the body with an inverted element waits
+    waiting_.assign(groups_->self_pairs.size(), 0);
+    for (Index e = 0; e < body.num_elements(); ++e)
+      if (inverted[at(e)]) waiting_[at(groups_->element_group[at(e)])] = 1;
+    stats.waited = static_cast<Index>(std::count(waiting_.begin(), waiting_.end(), 1));
+  } else if (std::find(inverted.begin(), inverted.end(), 1) != inverted.end()) {
     stats.waited = 1;
     return stats;
   }
@@ -396,7 +415,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   for (const std::size_t i : close) {
     const Pair& p = candidates_[i];
     if (apply_impulse(body, p, gather(xs0, p.vertices), d, fixed, kRepulsionFraction * (thickness - start_[i]),
-                      parameters.friction))
+                      friction(p, parameters.friction)))
       ++stats.repulsions;
   }
   // Detection again after impulses. With `only` (per surface vertex), and
@@ -419,7 +438,8 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
       ccd::Points4 x = gather(xs0, p.vertices);
       const ccd::Points4 dx = gather(ds, p.vertices);
       for (std::size_t k = 0; k < 4; ++k) x[k] += impact.toi * dx[k];
-      if (apply_impulse(body, p, x, d, fixed, kSeparationFraction * thickness, parameters.friction)) ++stats.impacts;
+      if (apply_impulse(body, p, x, d, fixed, kSeparationFraction * thickness, friction(p, parameters.friction)))
+        ++stats.impacts;
     }
     // Measured again: pairs of a vertex whose element has a node that moved,
     // and the impacts' own (an impulse that could not act leaves its pair).

@@ -11,6 +11,7 @@
 // its share c_i J and moves by c_i J / m_i), so the total momentum does not
 // change (Σ c_i = 0 for the two sides of a pair).
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "core/body.h"
@@ -44,8 +45,26 @@ struct SelfCollisionParameters {
   int max_rounds = 8;      ///< impulse rounds before the fail-safe
 };
 
+/// Several bodies' surfaces resolved as one (collisions between bodies,
+/// docs/embedded-surface.md): the "body" given to SelfCollisions is then
+/// their concatenation, and each surface vertex and element names its own.
+/// Pairs across bodies always count; pairs within a body only if that
+/// body's self-collisions are on.
+struct CollisionGroups {
+  std::vector<std::int32_t> vertex_group;   ///< per surface vertex, its body
+  std::vector<std::int32_t> element_group;  ///< per element, its body
+  std::vector<std::uint8_t> self_pairs;     ///< per body: pairs within it resolved
+  std::vector<double> self_friction;        ///< per body: Coulomb coefficient within it
+  double between_friction = 0.0;            ///< Coulomb coefficient between two bodies
+};
+
 class SelfCollisions {
  public:
+  /// Resolves several bodies at once from now on (nullopt: one body).
+  /// A body with an element inverted then waits alone: its own pairs are
+  /// left for the step, its pairs with other bodies are not.
+  void set_groups(std::optional<CollisionGroups> groups);
+
   /// Changes the node displacements `d` (#N×3) of a step that starts at node
   /// positions `x0` (#N×3), so that the body's surface, moving linearly from
   /// W x0 to W (x0 + d), does not pass through itself. Nodes flagged in
@@ -93,6 +112,22 @@ class SelfCollisions {
   bool apply_impulse(const Body& body, const Pair& pair, const ccd::Points4& x, Points& d,
                      const std::vector<std::uint8_t>& fixed, double target, double friction) const;
 
+  /// Whether the pair lies within one body (always, without groups).
+  [[nodiscard]] bool within(const Pair& pair) const {
+    return within(pair.vertices);
+  }
+  [[nodiscard]] bool within(const std::array<Index, 4>& v) const {
+    return !groups_ || group(v) == groups_->vertex_group[static_cast<std::size_t>(v[3])];
+  }
+  /// The body of the pair's first vertex.
+  [[nodiscard]] std::int32_t group(const std::array<Index, 4>& v) const {
+    return groups_->vertex_group[static_cast<std::size_t>(v[0])];
+  }
+  /// The pair's Coulomb coefficient.
+  [[nodiscard]] double friction(const Pair& pair, double own) const;
+
+  std::optional<CollisionGroups> groups_;
+  std::vector<std::uint8_t> waiting_;  // per group, this step: an element inverted (its own pairs wait)
   Triangles triangles_;                      // the surface the edges below belong to
   std::vector<std::array<Index, 2>> edges_;  // unique surface edges, sorted
   std::vector<Index> edge_owner_;            // per edge, the lowest triangle holding it

@@ -144,6 +144,32 @@ TEST(Scene, SelfCollisionsAreOnUnlessSwitchedOff) {
                                             "/objects/0/self_collisions must be an object"));
 }
 
+TEST(Scene, BodiesCollideWithEachOtherUnlessSwitchedOff) {
+  const auto with = [](const std::string& value) {
+    return with_object(kCube, fmt::format(R"("collisions_between_bodies": {},)", value));
+  };
+  const Scene plain = parse(with_object(kCube));
+  EXPECT_TRUE(plain.body_collisions.enabled);
+  EXPECT_EQ(plain.body_collisions.thickness, 0.0);  // the default: the bodies' own
+  EXPECT_EQ(plain.body_collisions.friction, 0.0);
+  EXPECT_FALSE(parse(with("false")).body_collisions.enabled);
+  const Scene set = parse(with(R"({"thickness": 0.001, "friction": 0.8})"));
+  EXPECT_TRUE(set.body_collisions.enabled);
+  EXPECT_EQ(set.body_collisions.thickness, 0.001);
+  EXPECT_EQ(set.body_collisions.friction, 0.8);
+  EXPECT_FALSE(parse(with(R"({"enabled": false})")).body_collisions.enabled);
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(with(R"({"thickness": 0})")); },
+                                            "/collisions_between_bodies/thickness must be positive"));
+  EXPECT_TRUE(test::throws_error_containing(
+      [&] { parse(with(R"({"thickness": 0.03})")); },
+      "/collisions_between_bodies/thickness must be below a tenth of the smallest object's size (0.2 m across)"));
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(with(R"({"friction": -1})")); },
+                                            "/collisions_between_bodies/friction must be"));
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(with(R"({"frction": 1})")); },
+                                            "/collisions_between_bodies/frction is not a known key"));
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(with("1")); }, "/collisions_between_bodies must be an object"));
+}
+
 TEST(Scene, ACameraIsForPicturesAndChecked) {
   EXPECT_FALSE(parse(with_object(kCube)).camera.has_value());
   const Scene s = parse(with_object(kCube, R"("camera": {"position": [1, -2, 1], "target": [0, 0, 0.1], "fov_degrees": 40},)"));
