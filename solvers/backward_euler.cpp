@@ -347,8 +347,11 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
   status.collisions +=
       collisions_.resolve_velocities(body, body.velocities, constraints_.obstacles, t_next, dt, fixed_).resolved;
   times_.collisions += timer.lap();
-  if (constraints_.self_collisions)
-    status.self_collisions = self_collisions_.resolve_step(body, x0, dt, fixed_, *constraints_.self_collisions);
+  if (constraints_.self_collisions) {
+    SelfCollisionParameters parameters = *constraints_.self_collisions;
+    parameters.reference_step = settings_.time_step;  // a halved step responds at half the displacement
+    status.self_collisions = self_collisions_.resolve_step(body, x0, dt, fixed_, parameters);
+  }
   times_.self_collisions += timer.lap();
   time_ = t_next;
   status.times = times_;

@@ -73,6 +73,7 @@ double NewmarkIntegrator::stable_time_step(Body& body) {
     const double h = std::cbrt(12.0 * body.rest_volumes.mean());
     dt = std::min(dt, surface_tension_time_step(body.material.density, h, body.material.surface_tension));
   }
+  reference_step_ = dt;  // the step without the strain-rate bound (self-collision targets scale by Δt over it)
   const double rate = max_strain_rate(body, body.velocities);
   if (rate > 0.0) dt = std::min(dt, settings_.max_strain_per_step / rate);
   return dt;
@@ -204,9 +205,11 @@ void NewmarkIntegrator::begin_step(Body& body, double dt) {
   times_.collisions += timer.lap();
   // The surface against itself over the whole move, obstacles' corrections
   // included; the impulses change v½ too (Bridson et al. 2002).
-  if (constraints_.self_collisions)
-    status.self_collisions =
-        self_collisions_.resolve_step(body, x_start, dt, constrained_, *constraints_.self_collisions);
+  if (constraints_.self_collisions) {
+    SelfCollisionParameters parameters = *constraints_.self_collisions;
+    parameters.reference_step = reference_step_;
+    status.self_collisions = self_collisions_.resolve_step(body, x_start, dt, constrained_, parameters);
+  }
   times_.self_collisions += timer.lap();
 }
 

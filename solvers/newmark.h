@@ -61,6 +61,10 @@ class NewmarkIntegrator {
 
   /// The time step the next step would take if unlimited by max_dt.
   double stable_time_step(Body& body);
+  /// The last stable_time_step without its strain-rate bound (the elastic
+  /// and capillary bounds and max_time_step): the step at which collision
+  /// responses reach their full size.
+  [[nodiscard]] double reference_step() const { return reference_step_; }
 
  private:
   void ensure_forces(Body& body);
@@ -85,6 +89,7 @@ class NewmarkIntegrator {
   StepTimes times_;  // this step's, by stage
   StepStatus pending_;  // the step begun, until finished
   double step_dt_ = 0.0;
+  double reference_step_ = 0.0;
   bool have_forces_ = false;
   double time_ = 0.0;
   std::vector<unsigned char> constrained_;

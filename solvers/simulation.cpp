@@ -398,6 +398,13 @@ void Simulation::collide_bodies(const std::vector<Points>& x_start, double dt) {
     joint_.masses.segment(n0, body.num_nodes()) = body.masses;
     for (const Index n : bodies_[i].pinned) fixed[at(n0 + n)] = 1;
   }
+  // Responses at full size at the smallest reference step of the bodies,
+  // scaled down for a shorter step (SelfCollisionParameters::target_scale).
+  double reference = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < count; ++i)
+    reference = std::min(reference, steppers_[i]->newmark ? steppers_[i]->newmark->reference_step()
+                                                          : scene_.backward_euler.time_step);
+  if (reference > 0.0 && std::isfinite(reference)) parameters.target_scale = std::min(1.0, dt / reference);
   const Points before = d;
   self_collisions_ += joint_collisions_.resolve(joint_, x0, d, fixed, parameters);
   for (std::size_t i = 0; i < count; ++i) {

@@ -25,6 +25,12 @@ constexpr int kMaxZoneRounds = 64;
 // step, not merely at rest: other impulses of the round then rarely turn it
 // back into an approach.
 constexpr double kSeparationFraction = 0.1;
+// Both are displacements over the step, so the velocity they set is
+// target / Δt: a step cut short (the strain-rate bound, a frame's end) would
+// set pairs apart the faster the shorter it is, the faster motion would cut
+// the next step shorter still, and the run would run away (the armadillo
+// grate: Δt fell to 1.5e-8 s and a node reached 3.6 km/s). resolve_step
+// scales them by Δt / reference step (SelfCollisionParameters).
 // How far an impulse may move a node, over the change it makes at its pair:
 // |c_k|/(m_k K) with K = Σ c_j²/m_j. With equal masses and no node on both
 // sides, one side's c (summing to 1 over at most 12 nodes) gives
@@ -414,7 +420,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   });
   for (const std::size_t i : close) {
     const Pair& p = candidates_[i];
-    if (apply_impulse(body, p, gather(xs0, p.vertices), d, fixed, kRepulsionFraction * (thickness - start_[i]),
+    if (apply_impulse(body, p, gather(xs0, p.vertices), d, fixed, parameters.target_scale * kRepulsionFraction * (thickness - start_[i]),
                       friction(p, parameters.friction)))
       ++stats.repulsions;
   }
@@ -438,7 +444,8 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
       ccd::Points4 x = gather(xs0, p.vertices);
       const ccd::Points4 dx = gather(ds, p.vertices);
       for (std::size_t k = 0; k < 4; ++k) x[k] += impact.toi * dx[k];
-      if (apply_impulse(body, p, x, d, fixed, kSeparationFraction * thickness, friction(p, parameters.friction)))
+      if (apply_impulse(body, p, x, d, fixed, parameters.target_scale * kSeparationFraction * thickness,
+                        friction(p, parameters.friction)))
         ++stats.impacts;
     }
     // Measured again: pairs of a vertex whose element has a node that moved,
@@ -497,7 +504,9 @@ SelfCollisionStats SelfCollisions::resolve_step(Body& body, const Points& x0, do
                                                 const SelfCollisionParameters& parameters) {
   const Points before = body.positions - x0;
   Points d = before;
-  const SelfCollisionStats stats = resolve(body, x0, d, fixed, parameters);
+  SelfCollisionParameters scaled = parameters;
+  if (parameters.reference_step > 0.0) scaled.target_scale = std::min(1.0, dt / parameters.reference_step);
+  const SelfCollisionStats stats = resolve(body, x0, d, fixed, scaled);
   for (Index n = 0; n < body.num_nodes(); ++n) {
     if (d.row(n) == before.row(n)) continue;
     body.positions.row(n) = x0.row(n) + d.row(n);

@@ -43,6 +43,14 @@ struct SelfCollisionParameters {
   double thickness = 0.0;  ///< m: pairs are kept at least this far apart (those that start closer, apart from half their gap)
   double friction = 0.0;   ///< Coulomb coefficient between sheets of the surface
   int max_rounds = 8;      ///< impulse rounds before the fail-safe
+  /// The share of the full repulsion and separation targets this step
+  /// applies, in (0, 1]. resolve_step sets it to min(1, Δt / reference_step),
+  /// so the velocity those targets give (target / Δt) stays below
+  /// thickness / (10 reference_step) however short the step.
+  double target_scale = 1.0;
+  /// s: the step at which the targets reach their full size (the body's
+  /// stable step); 0: never scaled.
+  double reference_step = 0.0;
 };
 
 /// Several bodies' surfaces resolved as one (collisions between bodies,
@@ -76,7 +84,8 @@ class SelfCollisions {
   /// positions x0 to its current positions: the nodes whose displacement
   /// changes move there, and their velocities change by the same amount
   /// over dt (the impulses' velocity change). Nothing changes, to the bit,
-  /// when no impulse was needed.
+  /// when no impulse was needed. With a reference_step, a step shorter
+  /// than it scales the repulsion and separation targets down in proportion.
   SelfCollisionStats resolve_step(Body& body, const Points& x0, double dt, const std::vector<std::uint8_t>& fixed,
                                   const SelfCollisionParameters& parameters);
 

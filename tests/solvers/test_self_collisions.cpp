@@ -215,6 +215,32 @@ TEST(SelfCollisions, ABodyWithAnInvertedElementIsLeftToTurnBack) {
   EXPECT_TRUE(c.d == before);
 }
 
+TEST(SelfCollisions, AShortStepSetsNoFasterVelocitiesThanAFullOne) {
+  // Two boxes 0.1 m apart at rest with a thickness of 0.2 m: the repulsion
+  // pushes them apart by a tenth of the missing 0.1 m over a full step.
+  // Velocity = displacement / Δt, so a step 1000× shorter would set them
+  // apart 1000× faster (a run's steps shrink under fast motion, and the
+  // response would then feed the motion that shrinks them). With the
+  // reference step, the targets scale by Δt / reference: the velocities
+  // set are those of a full step, whatever the step.
+  const double reference = 1e-3;
+  auto fastest = [&](double dt, double reference_step) {
+    Body body = stacked_boxes(0.1);
+    body.velocities.setZero();
+    const Points x0 = body.positions;
+    SelfCollisionParameters parameters{0.2, 0.0, 8};
+    parameters.reference_step = reference_step;
+    SelfCollisions stage;
+    const SelfCollisionStats stats = stage.resolve_step(body, x0, dt, {}, parameters);
+    EXPECT_GT(stats.repulsions, 0);
+    return body.velocities.rowwise().norm().maxCoeff();
+  };
+  const double full = fastest(reference, reference);
+  EXPECT_GT(full, 0.0);
+  for (const double dt : {1e-4, 1e-6, 1e-9}) EXPECT_NEAR(fastest(dt, reference), full, 1e-6 * full) << "Δt = " << dt;
+  EXPECT_NEAR(fastest(1e-6, 0.0), 1000.0 * full, 1e-6 * full * 1000.0);  // unscaled: 1000× faster
+}
+
 TEST(SelfCollisions, SameBitsOnOneAndTwoThreads) {
   Points one, two;
   for (const int threads : {1, 2}) {
