@@ -95,6 +95,13 @@ std::vector<Index> nodes_in(const Points& x, const std::vector<PinnedRegion>& re
   return out;
 }
 
+/// Newton failed even at the smallest Δt: not bad input.
+NumericalFailure newton_failure(std::int64_t step, double t, const std::string& body, const Error& e) {
+  return NumericalFailure(fmt::format("numerical failure at step {} (t = {:.6g} s): body '{}': {}; try a smaller "
+                                      "backward_euler.time_step or more max_newton_iterations",
+                                      step, t, body, e.what()));
+}
+
 }  // namespace
 
 /// The body's integrator, one of the two.
@@ -239,16 +246,8 @@ void Simulation::check_state(std::size_t i) const {
       steps_, t, last_dt_, bodies_[i].name, worst, corner / 4, what));
 }
 
-void Simulation::record(const StepStatus& status) {
-  last_dt_ = status.dt;
-  times_.step += status.times;
-  self_collisions_ += status.self_collisions;
-  volume_total_ += status.volume;
-  volume_frame_ += status.volume;
-  ++steps_;
-}
-
-void Simulation::record(const NewtonStatus& status) {
+template <class Status>
+void Simulation::record(const Status& status) {
   last_dt_ = status.dt;
   times_.step += status.times;
   self_collisions_ += status.self_collisions;
@@ -267,9 +266,7 @@ void Simulation::step_body(std::size_t i, double max_dt) {
     try {
       record(s.backward_euler->step(b.body, max_dt));
     } catch (const Error& e) {  // Newton failed even at the smallest Δt: not bad input
-      throw NumericalFailure(fmt::format("numerical failure at step {} (t = {:.6g} s): body '{}': {}; try a smaller "
-                                         "backward_euler.time_step or more max_newton_iterations",
-                                         steps_ + 1, s.backward_euler->time(), b.name, e.what()));
+      throw newton_failure(steps_ + 1, s.backward_euler->time(), b.name, e);
     }
   }
   times_.integrate += seconds_since(start);
@@ -311,9 +308,7 @@ void Simulation::step_together(double max_dt) {
         record(status);
       });
     } catch (const Error& e) {
-      throw NumericalFailure(fmt::format("numerical failure at step {} (t = {:.6g} s): body '{}': {}; try a smaller "
-                                         "backward_euler.time_step or more max_newton_iterations",
-                                         steps_ + 1, s.backward_euler->time(), b.name, e.what()));
+      throw newton_failure(steps_ + 1, s.backward_euler->time(), b.name, e);
     }
     s.backward_euler->set_time(t0 + dt);
   }

@@ -20,9 +20,6 @@
 
 namespace goo {
 
-struct StepStatus;
-struct NewtonStatus;
-
 /// A run that went numerically wrong (a non-finite value, a node faster than
 /// the scene's limits.max_speed). Not bad input: the message is a diagnosis
 /// naming the step, the time, the body, the node and an element holding it.
@@ -126,8 +123,9 @@ class Simulation {
   void collide_bodies(const std::vector<Points>& x_start, double dt);
   void check_state(std::size_t i) const;
   void remesh_if_due(std::size_t i);
-  void record(const StepStatus& status);
-  void record(const NewtonStatus& status);
+  /// Counts one integrator step (a StepStatus or a NewtonStatus).
+  template <class Status>
+  void record(const Status& status);
   /// Body i's self-collision parameters (thickness resolved).
   [[nodiscard]] SelfCollisionParameters self_collision_parameters(std::size_t i) const;
 
