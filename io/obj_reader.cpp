@@ -28,9 +28,10 @@ std::string_view next_word(std::string_view& line) {
 }
 
 /// Walks the OBJ text: exact coordinates of every 'v' line, and every face
-/// index checked against the vertices defined before it (OBJ's rule).
-std::vector<std::array<double, 3>> scan_obj(const std::string& text, const std::string& name) {
-  std::vector<std::array<double, 3>> points;
+/// index checked against the vertices defined before it (OBJ's rule) and
+/// resolved (negative: counted back from the last vertex), into `soup`.
+void scan_obj(const std::string& text, const std::string& name, PolygonSoup& soup) {
+  std::vector<std::array<double, 3>>& points = soup.points;
   std::size_t pos = 0;
   for (int line_number = 1; pos < text.size(); ++line_number) {
     const std::size_t eol = std::min(text.find('\n', pos), text.size());
@@ -55,6 +56,7 @@ std::vector<std::array<double, 3>> scan_obj(const std::string& text, const std::
       }
       points.push_back(p);
     } else if (keyword == "f") {
+      std::vector<std::size_t>& polygon = soup.polygons.emplace_back();
       for (std::string_view word = next_word(line); !word.empty(); word = next_word(line)) {
         const std::string_view index = word.substr(0, word.find('/'));
         long long id = 0;
@@ -67,10 +69,10 @@ std::vector<std::array<double, 3>> scan_obj(const std::string& text, const std::
           throw Error(fmt::format("{}: line {}: face references vertex {}, but {} vertices are defined before it", name,
                                   line_number, id, count));
         }
+        polygon.push_back(static_cast<std::size_t>(id > 0 ? id - 1 : count + id));
       }
     }
   }
-  return points;
 }
 
 }  // namespace
@@ -82,8 +84,11 @@ PolygonSoup read_obj(const std::filesystem::path& path) {
   buffer << in.rdbuf();
   const std::string text = buffer.str();
   PolygonSoup soup;
-  soup.points = scan_obj(text, name);
+  scan_obj(text, name, soup);
 
+  // The OBJ library checks the syntax goo's scan does not; the faces are
+  // the scan's own: the library keeps a face's vertex count in one byte, so
+  // a face of 256 vertices or more would come back cut short.
   tinyobj::ObjReaderConfig config;
   config.triangulate = false;  // goo triangulates (ear clipping, polygon_soup.h)
   config.vertex_color = false;
@@ -97,19 +102,11 @@ PolygonSoup read_obj(const std::filesystem::path& path) {
     throw Error(fmt::format("{}: the OBJ reader found {} vertices where goo counts {} 'v' lines", name,
                             reader.GetAttrib().vertices.size() / 3, soup.points.size()));
   }
-  for (const auto& shape : reader.GetShapes()) {
-    std::size_t offset = 0;
-    for (std::size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
-      const std::size_t n = shape.mesh.num_face_vertices[f];
-      std::vector<std::size_t> polygon(n);
-      for (std::size_t k = 0; k < n; ++k) {
-        const int id = shape.mesh.indices[offset + k].vertex_index;
-        // Out-of-range ids are kept (as a huge number) for the range check.
-        polygon[k] = id < 0 ? std::numeric_limits<std::size_t>::max() : static_cast<std::size_t>(id);
-      }
-      soup.polygons.push_back(std::move(polygon));
-      offset += n;
-    }
+  std::size_t faces = 0;
+  for (const auto& shape : reader.GetShapes()) faces += shape.mesh.num_face_vertices.size();
+  if (faces != soup.polygons.size()) {
+    throw Error(fmt::format("{}: the OBJ reader found {} faces where goo counts {} 'f' lines", name, faces,
+                            soup.polygons.size()));
   }
   return soup;
 }

@@ -1,6 +1,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
+#include <cmath>
 #include <fstream>
 
 #include "core/error.h"
@@ -84,6 +87,40 @@ TEST(ReadSurfaceMesh, ObjQuadsAreTriangulatedAndNegativeIndicesResolved) {
   const TriangleMesh mesh = io::read_surface_mesh(path);
   EXPECT_EQ(mesh.num_triangles(), 12);
   EXPECT_NEAR(analyze_surface(mesh).volume, 1.0, 1e-15);
+}
+
+TEST(ReadSurfaceMesh, ObjFacesOfHundredsOfVerticesReadAsOffReadsThem) {
+  // A prism whose caps are 400-gons (the OBJ library keeps a face's vertex
+  // count in one byte: 400 became 144 and the prism was "not closed").
+  const int n = 400;
+  std::string obj, off = fmt::format("OFF\n{} {} 0\n", 2 * n, n + 2);
+  for (int z = 0; z < 2; ++z)
+    for (int k = 0; k < n; ++k) {
+      const double a = 2.0 * M_PI * k / n;
+      const std::string v = fmt::format("{} {} {}\n", std::cos(a), std::sin(a), z);
+      obj += "v " + v;
+      off += v;
+    }
+  std::string bottom = "f", top = "f", off_bottom = fmt::format("{}", n), off_top = fmt::format("{}", n);
+  for (int k = 0; k < n; ++k) {
+    bottom += fmt::format(" {}", n - k), off_bottom += fmt::format(" {}", n - 1 - k);  // downward
+    top += fmt::format(" {}", n + 1 + k), off_top += fmt::format(" {}", n + k);
+  }
+  obj += bottom + "\n" + top + "\n";
+  off += off_bottom + "\n" + off_top + "\n";
+  for (int k = 0; k < n; ++k) {
+    const int a = k, b = (k + 1) % n;
+    obj += fmt::format("f {} {} {} {}\n", a + 1, b + 1, n + b + 1, n + a + 1);
+    off += fmt::format("4 {} {} {} {}\n", a, b, n + b, n + a);
+  }
+  test::TempDir dir;
+  const TriangleMesh from_obj = io::read_surface_mesh(dir.write("prism.obj", obj));
+  const TriangleMesh from_off = io::read_surface_mesh(dir.write("prism.off", off));
+  EXPECT_EQ(from_obj.num_triangles(), from_off.num_triangles());
+  EXPECT_EQ(from_obj.num_triangles(), 2 * (n - 2) + 2 * n);
+  EXPECT_TRUE(from_obj.vertices == from_off.vertices);
+  EXPECT_TRUE(from_obj.triangles == from_off.triangles);
+  EXPECT_NEAR(analyze_surface(from_obj).volume, 0.5 * n * std::sin(2.0 * M_PI / n), 1e-12);
 }
 
 TEST(ReadSurfaceMesh, PlyVariantsReadTheSameSurface) {
