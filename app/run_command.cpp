@@ -362,10 +362,24 @@ int run_scene(const RunOptions& options) {
     const SimulationTotals loaded = sim.totals();  // the meshes the run goes on from
     initial.nodes = loaded.nodes, initial.elements = loaded.elements;
     initial.surface_vertices = loaded.surface_vertices, initial.surface_triangles = loaded.surface_triangles;
-    frame = static_cast<int>(resumed->integer("run/frame"));
+    // Values no run writes are refused, naming the field: a frame number
+    // names files (frame_NNNNN), and the clock is the frame's.
+    const std::int64_t stored_frame = resumed->integer("run/frame");
+    if (stored_frame < 0 || stored_frame > 99999)
+      throw Error(fmt::format("{}: run/frame is {}, not a frame number (0 to 99999)", *options.resume, stored_frame));
+    frame = static_cast<int>(stored_frame);
+    if (const double expected = frame / scene.output.fps;
+        !(std::abs(sim.time() - expected) <= 1e-9 * std::max(1.0, expected)))
+      throw Error(fmt::format("{}: time is {} s, but frame {} at {} fps is at {} s", *options.resume, sim.time(), frame,
+                              scene.output.fps, expected));
     initial.mass = resumed->real("run/initial_mass");
     initial.volume = resumed->real("run/initial_volume");
     initial.momentum = resumed->matrix("run/initial_momentum", 3).row(0).transpose();
+    if (!(std::isfinite(initial.mass) && initial.mass > 0.0 && std::isfinite(initial.volume) && initial.volume > 0.0 &&
+          initial.momentum.allFinite()))
+      throw Error(fmt::format("{}: run/initial_mass, run/initial_volume or run/initial_momentum is not a body's "
+                              "(non-positive or not finite)",
+                              *options.resume));
     if (frame > last_frame)
       throw Error(fmt::format("{}: the checkpoint is at frame {}, past the last frame {} asked for", *options.resume,
                               frame, last_frame));

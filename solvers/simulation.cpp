@@ -102,6 +102,57 @@ NumericalFailure newton_failure(std::int64_t step, double t, const std::string& 
                                       step, t, body, e.what()));
 }
 
+/// Coordinates a state may hold, m: far beyond any scene (a body at
+/// limits.max_speed for a day), far below what breaks the lattice and grids.
+constexpr double kFarthest = 1e9;
+
+/// Refuses a loaded body whose values no run can produce (a checkpoint's
+/// checksums hold, its numbers were written by something else): the first
+/// bad value, by array and index.
+void check_values(const Body& body, const std::string& prefix, const std::string& name) {
+  auto fail = [&](const std::string& array, Eigen::Index at, const std::string& what) {
+    throw Error(fmt::format("{}{} (body '{}'): entry {} {}", prefix, array, name, at, what));
+  };
+  auto points = [&](const Points& x, const std::string& array) {
+    for (Eigen::Index n = 0; n < x.rows(); ++n)
+      if (!x.row(n).allFinite() || x.row(n).cwiseAbs().maxCoeff() > kFarthest)
+        fail(array, n, fmt::format("is ({}, {}, {}): not finite, or beyond {:g} m", x(n, 0), x(n, 1), x(n, 2), kFarthest));
+  };
+  points(body.rest_positions, "rest_positions");
+  points(body.positions, "positions");
+  for (Eigen::Index n = 0; n < body.velocities.rows(); ++n)
+    if (!body.velocities.row(n).allFinite()) fail("velocities", n, "is not finite");
+  for (Eigen::Index n = 0; n < body.masses.size(); ++n)
+    if (!(std::isfinite(body.masses[n]) && body.masses[n] > 0.0))
+      fail("masses", n, fmt::format("is {}: a mass is positive and finite", body.masses[n]));
+  for (Eigen::Index e = 0; e < body.rest_volumes.size(); ++e) {
+    const auto k = static_cast<std::size_t>(e);
+    if (!(std::isfinite(body.rest_volumes[e]) && body.rest_volumes[e] > 0.0))
+      fail("rest_volumes", e, fmt::format("is {}: a volume is positive and finite", body.rest_volumes[e]));
+    if (!body.Dm_inv[k].allFinite()) fail("Dm_inv", e, "is not finite");
+    if (!(body.Fp[k].allFinite() && body.Fp[k].determinant() > 0.0))
+      fail("Fp", e, "is not finite or has no positive determinant");
+    if (!std::isfinite(body.alpha[e])) fail("alpha", e, "is not finite");
+    if (body.solid_fractions.size() > 0 &&
+        !(body.solid_fractions[e] >= 0.0 && body.solid_fractions[e] <= 1.0 + 1e-9))
+      fail("solid_fractions", e, fmt::format("is {}: a fraction is in [0, 1]", body.solid_fractions[e]));
+  }
+  // Barycentric coordinates sum to 1 (up to round-off); they may be
+  // negative (smoothing re-embeds a vertex the mesh no longer holds in the
+  // nearest element).
+  for (Eigen::Index v = 0; v < body.embedding.bary.rows(); ++v) {
+    const auto w = body.embedding.bary.row(v);
+    if (!w.allFinite() || std::abs(w.sum() - 1.0) > 1e-9 * std::max(1.0, w.cwiseAbs().maxCoeff()))
+      fail("embedding_bary", v, "is not a point's barycentric coordinates (finite, summing to 1)");
+  }
+  if (body.surface_triangles.rows() < 4)
+    throw Error(fmt::format("{}surface_triangles (body '{}'): {} triangles cannot close a surface", prefix, name,
+                            body.surface_triangles.rows()));
+  if (!(std::isfinite(body.rest_material_volume) && body.rest_material_volume > 0.0))
+    throw Error(fmt::format("{}rest_material_volume (body '{}'): {} is not a volume", prefix, name,
+                            body.rest_material_volume));
+}
+
 }  // namespace
 
 /// The body's integrator, one of the two.
@@ -597,6 +648,10 @@ void Simulation::load(const StateRecord& r) {
   steps_ = r.integer("steps");
   remeshes_ = r.integer("remeshes");
   last_dt_ = r.real("last_time_step");
+  if (!(std::isfinite(time_) && time_ >= 0.0)) throw Error(fmt::format("time: {} is not a time a run reaches", time_));
+  if (steps_ < 0 || remeshes_ < 0) throw Error(fmt::format("steps ({}) and remeshes ({}) cannot be negative", steps_, remeshes_));
+  if (!(std::isfinite(last_dt_) && last_dt_ >= 0.0))
+    throw Error(fmt::format("last_time_step: {} is not a time step", last_dt_));
   for (std::size_t i = 0; i < bodies_.size(); ++i) {
     SimulationBody& b = bodies_[i];
     const std::string p = fmt::format("bodies/{}/", i);
@@ -636,6 +691,7 @@ void Simulation::load(const StateRecord& r) {
                                  [&](Index e) { return e >= 0 && e < ne; }) &&
                      std::all_of(b.pinned.begin(), b.pinned.end(), [&](Index n) { return n >= 0 && n < nn; });
     if (!sizes || !ids) throw Error(fmt::format("state body {} ('{}'): array sizes or ids do not agree", i, b.name));
+    check_values(body, p, b.name);
     body.incidence = NodeIncidence::build(body.tets, static_cast<Index>(nn));
     b.body = std::move(body);
   }

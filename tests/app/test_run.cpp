@@ -12,10 +12,13 @@
 #include <fmt/ranges.h>
 
 #include <chrono>
+#include <functional>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <thread>
 
 #include "core/primitives.h"
+#include "io/checkpoint.h"
 #include "io/surface_mesh_io.h"
 #include "tests/app/run_goo.h"
 
@@ -402,6 +405,69 @@ TEST(GooRun, AResumedRunGoesOnInItsOwnFolderAndNeverIntoAnothers) {
   const CommandResult own = goo(args({"run --resume", quoted(dir / "a/checkpoints/frame_00002.h5"), "--frames 3 --quiet"}));
   ASSERT_EQ(own.exit_code, 0) << own.err;
   EXPECT_TRUE(fs::exists(dir / "a/frames/frame_00003.ply"));
+}
+
+TEST(GooRun, ACheckpointHoldingValuesNoRunWritesIsRefused) {
+  // Valid checksums, impossible values: refused with the field, exit 2,
+  // nothing written.
+  test::TempDir dir;
+  dir.write("drop.json", kDrop);
+  ASSERT_EQ(goo(args({"run", quoted(dir / "drop.json"), "--frames 1 --out", quoted(dir / "a"), "--quiet"})).exit_code, 0);
+  const StateRecord good = io::read_checkpoint(dir / "a/checkpoints/frame_00001.h5");
+  const Eigen::Index nodes = good.points("bodies/0/positions").rows();
+  struct Case {
+    std::string what;
+    std::function<void(StateRecord&)> tamper;
+    std::string expected;
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Case> cases = {
+      {"negative frame", [](StateRecord& r) { r.put("run/frame", std::int64_t{-1}); }, "run/frame is -1"},
+      {"frame past five digits", [](StateRecord& r) { r.put("run/frame", std::int64_t{1} << 32); }, "not a frame number"},
+      {"another frame's time", [](StateRecord& r) { r.put("run/frame", std::int64_t{2}); }, "but frame 2 at 24 fps"},
+      {"negative time", [](StateRecord& r) { r.put("time", -1.0); }, "time: -1"},
+      {"negative steps", [](StateRecord& r) { r.put("steps", std::int64_t{-5}); }, "cannot be negative"},
+      {"negative mass", [&](StateRecord& r) {
+         Eigen::VectorXd m = r.vector("bodies/0/masses");
+         m[nodes / 2] = -1.0;
+         r.put_vector("bodies/0/masses", m);
+       }, "bodies/0/masses (body 'cube'): entry"},
+      {"NaN mass", [&](StateRecord& r) {
+         Eigen::VectorXd m = r.vector("bodies/0/masses");
+         m[0] = nan;
+         r.put_vector("bodies/0/masses", m);
+       }, "bodies/0/masses"},
+      {"far position", [](StateRecord& r) {
+         Points x = r.points("bodies/0/positions");
+         x(1, 2) = 1e300;
+         r.put_matrix("bodies/0/positions", x);
+       }, "bodies/0/positions (body 'cube'): entry 1"},
+      {"NaN barycentric coordinate", [&](StateRecord& r) {
+         Eigen::MatrixXd b = r.matrix("bodies/0/embedding_bary", 4);
+         b(0, 0) = nan;
+         r.put_matrix("bodies/0/embedding_bary", b);
+       }, "bodies/0/embedding_bary"},
+      {"empty surface", [](StateRecord& r) { r.put("bodies/0/surface_triangles", Triangles(0, 3)); },
+       "cannot close a surface"},
+      {"flat plastic deformation", [](StateRecord& r) {
+         std::vector<Eigen::Matrix3d> fp = r.matrices3("bodies/0/Fp");
+         fp[0].setZero();
+         r.put("bodies/0/Fp", fp);
+       }, "bodies/0/Fp"},
+      {"zero material volume", [](StateRecord& r) { r.put("bodies/0/rest_material_volume", 0.0); },
+       "rest_material_volume"},
+      {"zero initial mass", [](StateRecord& r) { r.put("run/initial_mass", 0.0); }, "run/initial_mass"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    StateRecord bad = good;
+    c.tamper(bad);
+    io::write_checkpoint(dir / "bad.h5", bad);
+    const CommandResult r = goo(args({"run --resume", quoted(dir / "bad.h5"), "--frames 2 --out", quoted(dir / "b")}));
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_THAT(r.err, HasSubstr(c.expected));
+    EXPECT_FALSE(fs::exists(dir / "b/frames"));
+  }
 }
 
 TEST(GooRun, AResumeFindsTheScenesMeshesFromAnyFolder) {
