@@ -185,8 +185,14 @@ struct Transform {
   }
 };
 
+/// Angles beyond this lose the precision of a turn (and 1e308° has no sine
+/// worth the name).
+constexpr double kLargestAngleDegrees = 1e6;
+
 Eigen::Quaterniond rotation_of(const Node& n) {
   const Eigen::Vector3d deg = n.vec3();
+  if (deg.cwiseAbs().maxCoeff() > kLargestAngleDegrees)
+    n.fail(fmt::format("must lie within ±{:g} degrees (an angle, not a count of turns)", kLargestAngleDegrees));
   const Eigen::Vector3d r = deg * kPi / 180.0;
   return Eigen::Quaterniond(Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) *
                             Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
@@ -342,6 +348,24 @@ SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& 
   }
   Points& x = o.surface ? o.surface->vertices : o.tet_mesh->positions;
   for (Eigen::Index i = 0; i < x.rows(); ++i) x.row(i) = transform.apply(x.row(i).transpose()).transpose();
+  {
+    // Double precision resolves a coordinate X to X × 2⁻⁵²: the object must
+    // sit near enough the origin that this is below 10⁻⁶ of the finest
+    // element it may be meshed with (1e15 m from it, the coordinates of a
+    // 0.1 m cube are quantised to 0.125 m; 225 km is still fine).
+    const Eigen::Vector3d extent = x.colwise().maxCoeff() - x.colwise().minCoeff();
+    // The finest element a scene may ask for: 1/2000 of a surface object's
+    // size (lattice_spacing's bound below), 1/100 of a tetrahedral mesh's.
+    const double element = extent.maxCoeff() / (o.surface ? 2000.0 : 100.0);
+    const double far = x.cwiseAbs().maxCoeff();
+    const double resolution = far * std::numeric_limits<double>::epsilon();
+    if (!std::isfinite(far) || !(resolution <= 1e-6 * element)) {
+      const Node at = n.has("transform") ? n.at("transform") : n;
+      at.fail(fmt::format("places the object {:.3g} m from the origin, where coordinates are resolved only to {:.3g} "
+                          "m (over 10⁻⁶ of its finest element, {:.3g} m); move the scene nearer the origin",
+                          far, resolution, element));
+    }
+  }
   o.material = read_material(n.at("material"));
   if (o.surface) {
     o.lattice_spacing = n.at("lattice_spacing").positive();

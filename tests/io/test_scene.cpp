@@ -170,6 +170,26 @@ TEST(Scene, BodiesCollideWithEachOtherUnlessSwitchedOff) {
   EXPECT_TRUE(test::throws_error_containing([&] { parse(with("1")); }, "/collisions_between_bodies must be an object"));
 }
 
+TEST(Scene, TransformsDoublePrecisionCannotHoldAreRefusedNamingTheTransform) {
+  const auto cube_at = [](const std::string& transform) {
+    return with_object(fmt::format(
+        R"({{"primitive": {{"type": "box", "size": [0.2, 0.2, 0.2]}}, "material": "jiggly_gelatin", "lattice_spacing": 0.05, "transform": {}}})",
+        transform));
+  };
+  // 100 km away resolves the 0.2 m cube to 1.5e-11 m: fine.
+  EXPECT_EQ(parse(cube_at(R"({"translate": [1e5, 0, 0]})")).objects.size(), 1u);
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(cube_at(R"({"translate": [1e15, 0, 0]})")); },
+                                            "/objects/0/transform places the object 1e+15 m from the origin"));
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(cube_at(R"({"translate": [0, -1e308, 0]})")); },
+                                            "/objects/0/transform places the object"));
+  // Scaled up, it stays centred and resolved: its lattice is what fails.
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(cube_at(R"({"scale": 1e300})")); },
+                                            "/objects/0/lattice_spacing gives more than 2000 lattice cells"));
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(cube_at(R"({"rotate_degrees": [0, 1e308, 0]})")); },
+                                            "/objects/0/transform/rotate_degrees must lie within ±1e+06 degrees"));
+  EXPECT_EQ(parse(cube_at(R"({"rotate_degrees": [720, -45, 3600]})")).objects.size(), 1u);
+}
+
 TEST(Scene, ACameraIsForPicturesAndChecked) {
   EXPECT_FALSE(parse(with_object(kCube)).camera.has_value());
   const Scene s = parse(with_object(kCube, R"("camera": {"position": [1, -2, 1], "target": [0, 0, 0.1], "fov_degrees": 40},)"));
