@@ -185,6 +185,14 @@ struct Transform {
   }
 };
 
+/// A plane's distance from the origin, m: within ±10⁶ (a floor 10³⁰⁸ m
+/// away put every vertex there and made the volume NaN).
+double plane_offset(const Node& n) {
+  const double d = n.number();
+  if (std::abs(d) > 1e6) n.fail(fmt::format("must lie within ±1e6 m of the origin, got {}", d));
+  return d;
+}
+
 /// Angles beyond this lose the precision of a turn (and 1e308° has no sine
 /// worth the name).
 constexpr double kLargestAngleDegrees = 1e6;
@@ -429,10 +437,14 @@ Obstacle read_obstacle(Node n, std::size_t index, const std::filesystem::path& b
   if (type == "half_space") {
     const Node normal = shape.at("normal");
     const Eigen::Vector3d nv = normal.vec3();
-    if (!(nv.norm() > 0.0)) normal.fail("must not be zero");
+    const double largest = nv.cwiseAbs().maxCoeff();
+    if (!(largest > 0.0)) normal.fail("must not be zero");
+    // Scaled before normalising: [1e308, 1e308, 0] and [1e-320, 0, 0] have
+    // directions though their norms overflow or underflow.
+    const Eigen::Vector3d unit = (nv / largest).normalized();
     double offset = 0.0;
-    optional(shape, "offset", offset, [](const Node& v) { return v.number(); });
-    o.shape = make_half_space(nv.normalized(), offset);
+    optional(shape, "offset", offset, [](const Node& v) { return plane_offset(v); });
+    o.shape = make_half_space(unit, offset);
   } else if (type == "box") {
     const Node size = shape.at("size");
     const Eigen::Vector3d s = size.vec3();
@@ -680,7 +692,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::f
   if (auto i = root.get("integrator")) read_integrator(*i, s);
   if (auto g = root.get("ground")) {
     HalfSpace ground;
-    optional(*g, "height", ground.offset, [](const Node& v) { return v.number(); });
+    optional(*g, "height", ground.offset, [](const Node& v) { return plane_offset(v); });
     optional(*g, "friction", ground.friction, [](const Node& v) { return v.non_negative(); });
     g->finish();
     s.ground = ground;

@@ -188,6 +188,25 @@ TEST(Scene, TransformsDoublePrecisionCannotHoldAreRefusedNamingTheTransform) {
   EXPECT_TRUE(test::throws_error_containing([&] { parse(cube_at(R"({"rotate_degrees": [0, 1e308, 0]})")); },
                                             "/objects/0/transform/rotate_degrees must lie within ±1e+06 degrees"));
   EXPECT_EQ(parse(cube_at(R"({"rotate_degrees": [720, -45, 3600]})")).objects.size(), 1u);
+  // Planes: offsets within ±1e6 m, normals of any length with a direction.
+  EXPECT_TRUE(test::throws_error_containing(
+      [&] { parse(with_object(kCube, R"("ground": {"height": 1e308},)")); },
+      "/ground/height must lie within ±1e6 m of the origin"));
+  const auto plane = [](const std::string& shape) {
+    return with_object(kCube, fmt::format(R"("obstacles": [{{"shape": {}}}],)", shape));
+  };
+  EXPECT_TRUE(test::throws_error_containing(
+      [&] { parse(plane(R"({"type": "half_space", "normal": [0, 0, 1], "offset": -1e300})")); },
+      "/obstacles/0/shape/offset must lie within ±1e6 m"));
+  for (const auto& [normal, unit] : {std::pair{std::string("[0, 1e308, 1e308]"), Eigen::Vector3d(0, 1, 1).normalized()},
+                                     std::pair{std::string("[0, 0, 1e-320]"), Eigen::Vector3d(0, 0, 1)}}) {
+    const Scene s = parse(plane(R"({"type": "half_space", "normal": )" + normal + "}"));
+    ASSERT_EQ(s.obstacles.size(), 1u);
+    // One metre along the normal from the plane through the origin.
+    const SignedDistance d = s.obstacles[0].shape->signed_distance(unit);
+    EXPECT_NEAR(d.distance, 1.0, 1e-15) << normal;
+    EXPECT_TRUE(test::matrices_near(d.normal, unit, 1e-15)) << normal;
+  }
 }
 
 TEST(Scene, ACameraIsForPicturesAndChecked) {
