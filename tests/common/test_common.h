@@ -10,11 +10,22 @@
 #include <string>
 #include <string_view>
 
+#include "core/state_record.h"
 #include "core/tet_mesh.h"
 
 #include "core/error.h"
 
 namespace goo::test {
+
+/// Expects two saved states to hold the same arrays, bit for bit (a
+/// resumed or multi-threaded run against a straight or serial one).
+inline void expect_same_records(const StateRecord& a, const StateRecord& b) {
+  ASSERT_EQ(a.arrays().size(), b.arrays().size());
+  for (const auto& [name, array] : a.arrays()) {
+    ASSERT_TRUE(b.arrays().contains(name)) << name;
+    EXPECT_TRUE(array == b.arrays().at(name)) << name << " differs";
+  }
+}
 
 /// One tetrahedron: the origin and the three points `size` along each axis.
 inline TetMesh corner_tetrahedron(double size = 1.0) {

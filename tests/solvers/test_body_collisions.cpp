@@ -55,14 +55,7 @@ Eigen::Vector3d centre(const Simulation& sim, std::size_t i) {
   return (b.positions.array().colwise() * b.masses.array()).colwise().sum().transpose() / b.masses.sum();
 }
 
-void expect_same_state(const Simulation& a, const Simulation& b) {
-  const StateRecord ra = a.save(), rb = b.save();
-  ASSERT_EQ(ra.arrays().size(), rb.arrays().size());
-  for (const auto& [name, array] : ra.arrays()) {
-    ASSERT_TRUE(rb.arrays().contains(name)) << name;
-    EXPECT_TRUE(array == rb.arrays().at(name)) << name << " differs";
-  }
-}
+void expect_same_state(const Simulation& a, const Simulation& b) { test::expect_same_records(a.save(), b.save()); }
 
 TEST(BodyCollisions, CubesThrownHeadOnStopEachOtherAndNeverCross) {
   // The cubes' faces are 0.05 m apart and close at 3 m/s: they meet at

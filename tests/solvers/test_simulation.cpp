@@ -32,14 +32,7 @@ std::string thrown_cube(const std::string& integrator = R"({"type": "newmark"})"
                      integrator);
 }
 
-void expect_same_state(const Simulation& a, const Simulation& b) {
-  const StateRecord ra = a.save(), rb = b.save();
-  ASSERT_EQ(ra.arrays().size(), rb.arrays().size());
-  for (const auto& [name, array] : ra.arrays()) {
-    ASSERT_TRUE(rb.arrays().contains(name)) << name;
-    EXPECT_TRUE(array == rb.arrays().at(name)) << name << " differs";
-  }
-}
+void expect_same_state(const Simulation& a, const Simulation& b) { test::expect_same_records(a.save(), b.save()); }
 
 TEST(Simulation, ResumingFromASavedStateIsBitwiseIdentical) {
   for (const std::string& integrator :
