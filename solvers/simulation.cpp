@@ -417,21 +417,23 @@ void Simulation::collide_bodies(const std::vector<Points>& x_start, double dt) {
       groups.self_friction.push_back(bodies_[i].self_collisions.friction);
       n0 += body.num_nodes(), e0 += body.num_elements(), v0 += nv, t0 += nt;
     }
+    for (std::size_t i = 0; i < count; ++i)  // masses change only where joint_ is rebuilt (a re-mesh, a load)
+      joint_.masses.segment(node_offset_[i], bodies_[i].body.num_nodes()) = bodies_[i].body.masses;
     joint_collisions_.set_groups(std::move(groups));
+    // One thickness for the stage: the smallest any pair asks for (the
+    // key's, else the smallest body's own; a body's own pairs their own).
+    double smallest = std::numeric_limits<double>::infinity(), smallest_self = smallest;
+    for (std::size_t i = 0; i < count; ++i) {
+      const double own = self_collision_parameters(i).thickness;
+      smallest = std::min(smallest, own);
+      if (bodies_[i].self_collisions.enabled) smallest_self = std::min(smallest_self, own);
+    }
+    const double between = scene_.body_collisions.thickness;
+    joint_thickness_ = std::min(between > 0.0 ? between : smallest, smallest_self);
     joint_stale_ = false;
   }
-  // One thickness for the stage: the smallest any pair asks for.
   SelfCollisionParameters parameters;
-  parameters.thickness = scene_.body_collisions.thickness;
-  double smallest = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < count; ++i) {
-    const double own = self_collision_parameters(i).thickness;
-    smallest = std::min(smallest, own);
-  }
-  if (!(parameters.thickness > 0.0)) parameters.thickness = smallest;
-  for (std::size_t i = 0; i < count; ++i)
-    if (bodies_[i].self_collisions.enabled)
-      parameters.thickness = std::min(parameters.thickness, self_collision_parameters(i).thickness);
+  parameters.thickness = joint_thickness_;
 
   const Index nodes = joint_.num_nodes();
   Points x0(nodes, 3), d(nodes, 3);
@@ -441,7 +443,6 @@ void Simulation::collide_bodies(const std::vector<Points>& x_start, double dt) {
     const Index n0 = node_offset_[i];
     x0.middleRows(n0, body.num_nodes()) = x_start[i];
     d.middleRows(n0, body.num_nodes()) = body.positions - x_start[i];
-    joint_.masses.segment(n0, body.num_nodes()) = body.masses;
     for (const Index n : bodies_[i].pinned) fixed[at(n0 + n)] = 1;
   }
   // Responses at full size at the smallest reference step of the bodies,

@@ -136,6 +136,7 @@ class Simulation {
   SelfCollisions joint_collisions_;  // the stage over all bodies' surfaces
   Body joint_;  // every body's elements, masses and surface, concatenated (positions unused)
   std::vector<Index> node_offset_;  // per body, its first node in joint_
+  double joint_thickness_ = 0.0;  // the stage's thickness, m (set with joint_)
   bool joint_stale_ = true;  // a body was re-meshed or loaded: joint_ and the groups rebuilt
   double time_ = 0.0;
   double last_dt_ = 0.0;
