@@ -19,9 +19,11 @@
 
 namespace {
 
-/// Exit codes: 0 success, 1 internal failure, 2 bad input or usage.
+/// Exit codes: 0 success, 1 internal failure, 2 bad input or usage, 4 an
+/// output that cannot be written (goo run's own: docs/running.md).
 constexpr int kExitInternal = 1;
 constexpr int kExitBadInput = 2;
+constexpr int kExitWriteFailure = goo::app::kExitWriteFailure;
 
 }  // namespace
 
@@ -30,6 +32,9 @@ int main(int argc, char** argv) {
   // head`), writing a log line must fail quietly, not kill goo before it
   // writes its checkpoint and summary.
   std::signal(SIGPIPE, SIG_IGN);
+  // A file-size limit (ulimit -f) reached is a write that fails (EFBIG),
+  // reported naming the file like a full disk, not a process killed.
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"goo: viscoelastic and viscoplastic materials with thin features", "goo"};
   app.set_version_flag("--version", std::string("goo ") + GOO_VERSION);
   app.require_subcommand(0, 1);
@@ -93,6 +98,10 @@ int main(int argc, char** argv) {
     }
     std::cout << app.help();
     return 0;
+  } catch (const goo::WriteError& e) {
+    std::cout.flush();
+    fmt::print(stderr, "goo: error: cannot write the output: {}\n", e.what());
+    return kExitWriteFailure;
   } catch (const goo::Error& e) {
     std::cout.flush();
     fmt::print(stderr, "goo: error: {}\n", e.what());

@@ -10,6 +10,7 @@
 #include <csignal>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -282,7 +283,7 @@ void remove_run(const fs::path& folder) {
   for (const fs::path& file : run_files(folder)) {
     std::error_code ec;
     fs::remove(file, ec);
-    if (ec) throw Error(fmt::format("{}: cannot remove the earlier run's file ({})", file.string(), ec.message()));
+    if (ec) throw WriteError(fmt::format("{}: cannot remove the earlier run's file ({})", file.string(), ec.message()));
   }
 }
 
@@ -389,7 +390,7 @@ int run_scene(const RunOptions& options) {
   // 2. The output folder.
   fs::create_directories(folder / "frames", ec);
   if (!ec) fs::create_directories(folder / "checkpoints", ec);
-  if (ec) throw Error(fmt::format("{}: cannot create the output folder: {}", folder.string(), ec.message()));
+  if (ec) throw WriteError(fmt::format("{}: cannot create the output folder: {}", folder.string(), ec.message()));
   Outputs outputs{folder, &scene.output, nullptr, 0.0, 0.0, {}};
   if (scene.output.hdf5) outputs.run_file = std::make_unique<io::RunFile>(folder, resuming ? frame + 1 : 0);
   double checkpoint_seconds = 0.0;
@@ -410,7 +411,25 @@ int run_scene(const RunOptions& options) {
                scene.source, scene.objects.size(), t.elements, t.surface_triangles, to_string(scene.integrator),
                frame, last_frame, scene.output.fps, folder.string());
   }
-  if (!resuming) outputs.write_frame(0, sim);
+  std::string status = "completed", failure;
+  int exit_code = 0;
+  // A file that cannot be written (the disk full, a quota or size limit, the
+  // folder removed) ends the run: the files written before stay, and the
+  // summary says why (if it can still be written).
+  auto written = [&](const std::function<void()>& write) {
+    try {
+      write();
+      return true;
+    } catch (const WriteError& e) {
+      failure = fmt::format("cannot write the output: {}", e.what());
+      log().error("{}", failure);
+      log().error("the frames and checkpoints written before are kept in {}", folder.string());
+      status = "failed";
+      exit_code = kExitWriteFailure;
+      return false;
+    }
+  };
+  if (!resuming) written([&] { outputs.write_frame(0, sim); });
   // Frame 0's surface (a resumed run wrote it before).
   const nlohmann::json initial_surface = resuming ? nlohmann::json(nullptr) : to_json(outputs.quality);
 
@@ -422,8 +441,6 @@ int run_scene(const RunOptions& options) {
   // cost 430 bytes per tet: 40% of the Newmark path's memory.)
   Progress progress(options.quiet, frame, last_frame);
   progress.set_steps0(sim.steps());
-  std::string status = "completed", failure;
-  int exit_code = 0;
   const int first_frame = frame;
   // Per frame (the profile of docs/benchmarks.md): the wall time of each
   // stage spent on it, and the mesh sizes at its end.
@@ -472,7 +489,7 @@ int run_scene(const RunOptions& options) {
     // not hold a signalled run forever.
     return g_signals >= 2 || (told && seconds_since(signalled) > kSignalGrace);
   };
-  while (true) {
+  while (exit_code == 0) {
     sim.make_restart_point();
     if (frame >= last_frame) break;
     if (g_signals > 0) {  // a whole frame after the signal: its checkpoint is written below
@@ -482,7 +499,7 @@ int run_scene(const RunOptions& options) {
       break;
     }
     const int every = scene.checkpoint_every_frames;
-    if (every > 0 && frame > first_frame && frame % every == 0) write_checkpoint(frame);
+    if (every > 0 && frame > first_frame && frame % every == 0 && !written([&] { write_checkpoint(frame); })) break;
     bool completed = false;
     try {
       completed = sim.advance_to((frame + 1) / scene.output.fps, stop_now);
@@ -511,7 +528,11 @@ int run_scene(const RunOptions& options) {
     }
     ++frame;
     const double output_before = outputs.seconds, quality_before = outputs.quality_seconds;
-    outputs.write_frame(frame, sim);
+    if (!written([&] { outputs.write_frame(frame, sim); })) {
+      --frame;  // the last frame written whole
+      progress.finish();
+      break;
+    }
     per_frame.push_back(frame_record(frame, output_before, quality_before));
     progress.update(frame, sim.time(), sim.steps(), sim.remeshes(), frame == last_frame);
   }
@@ -519,7 +540,7 @@ int run_scene(const RunOptions& options) {
   if (exit_code == 0 || (exit_code == kExitInterrupted && g_signals == 1 && !stopped_in_frame)) {
     progress.finish();
     if (exit_code == kExitInterrupted) log().warn("interrupted: writing the checkpoint of frame {}", frame);
-    write_checkpoint(frame);  // the run's end, or the frame finished after a signal
+    written([&] { write_checkpoint(frame); });  // the run's end, or the frame finished after a signal
   }
 
   // 4. The summary.
@@ -571,7 +592,12 @@ int run_scene(const RunOptions& options) {
   j["volume_projection"] = to_json(sim.volume_totals());
   j["per_frame"] = per_frame;
   const std::string text = j.dump(2) + "\n";
-  io::write_file_atomically(folder / "summary.json", [&](std::ostream& out) { out << text; });
+  try {
+    io::write_file_atomically(folder / "summary.json", [&](std::ostream& out) { out << text; });
+  } catch (const WriteError& e) {
+    log().error("no summary: {}", e.what());
+    if (exit_code == 0) exit_code = kExitWriteFailure;
+  }
   if (!options.quiet && exit_code == 0)
     log().info("{} frames, {} steps, {} re-meshes in {:.1f} s; volume {:.6g} → {:.6g} m³; summary in {}", frame,
                sim.steps(), sim.remeshes(), seconds_since(wall_start), initial.volume, now.volume,

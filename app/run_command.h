@@ -19,12 +19,16 @@ struct RunOptions {
 
 /// Exit codes of goo run (beside 2 for bad input, thrown as goo::Error).
 inline constexpr int kExitNumericalFailure = 3;
+inline constexpr int kExitWriteFailure = 4;
 inline constexpr int kExitInterrupted = 130;
 
 /// Runs the scene. Returns 0 when every frame was written, 3 after a
-/// numerical failure (diagnosed, last good checkpoint kept), 130 when
-/// interrupted by SIGINT or SIGTERM (a checkpoint of the last whole frame
-/// written). Bad input throws goo::Error before anything is written.
+/// numerical failure (diagnosed, last good checkpoint kept), 4 when an
+/// output file could not be written (a full disk: the files written before
+/// are kept), 130 when interrupted by SIGINT or SIGTERM (a checkpoint of the
+/// last whole frame written). Bad input throws goo::Error before anything is
+/// written; an output that cannot be written before the first frame,
+/// goo::WriteError.
 int run_scene(const RunOptions& options);
 
 }  // namespace goo::app

@@ -20,11 +20,11 @@ void write_file_atomically(const std::filesystem::path& path, const std::functio
   const std::filesystem::path folder = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
   std::error_code error;
   if (!std::filesystem::is_directory(folder, error)) {
-    throw Error(fmt::format("{}: cannot write: folder '{}' does not exist", path.string(), folder.string()));
+    throw WriteError(fmt::format("{}: cannot write: folder '{}' does not exist", path.string(), folder.string()));
   }
   const std::filesystem::path temporary = temporary_name(path);
   const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
-  if (fd < 0) throw Error(fmt::format("{}: cannot write: {}", path.string(), std::strerror(errno)));
+  if (fd < 0) throw WriteError(fmt::format("{}: cannot write: {}", path.string(), std::strerror(errno)));
   try {
     {
       __gnu_cxx::stdio_filebuf<char> buffer(fd, std::ios::out | std::ios::binary);  // closes fd when done
@@ -32,10 +32,10 @@ void write_file_atomically(const std::filesystem::path& path, const std::functio
       write(out);
       out.flush();
       if (!out || ::fsync(fd) != 0)
-        throw Error(fmt::format("{}: writing failed: {}", path.string(), std::strerror(errno)));
+        throw WriteError(fmt::format("{}: writing failed: {}", path.string(), std::strerror(errno)));
     }
     std::filesystem::rename(temporary, path, error);
-    if (error) throw Error(fmt::format("{}: cannot replace it: {}", path.string(), error.message()));
+    if (error) throw WriteError(fmt::format("{}: cannot replace it: {}", path.string(), error.message()));
   } catch (...) {
     std::filesystem::remove(temporary, error);
     throw;

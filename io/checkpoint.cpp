@@ -23,6 +23,7 @@ namespace goo::io {
 namespace {
 
 using detail::H5Handle;
+using detail::io_reason;
 
 constexpr std::size_t kUserBlock = 512;
 constexpr const char* kMagic = "goo-checkpoint";
@@ -69,13 +70,19 @@ std::string read_user_block(const std::filesystem::path& path) {
   return block;
 }
 
+// Writing: a failure is the disk's (full, a quota, a size limit), not the input's.
 void check(herr_t status, const std::filesystem::path& path, std::string_view what) {
-  if (status < 0) throw Error(fmt::format("{}: HDF5 failed to {}", path.string(), what));
+  if (status < 0) throw WriteError(fmt::format("{}: HDF5 failed to {}{}", path.string(), what, io_reason()));
 }
 
 hid_t check(hid_t id, const std::filesystem::path& path, std::string_view what) {
-  if (id < 0) throw Error(fmt::format("{}: HDF5 failed to {}", path.string(), what));
+  if (id < 0) throw WriteError(fmt::format("{}: HDF5 failed to {}{}", path.string(), what, io_reason()));
   return id;
+}
+
+// Reading: a failure is the file's (damaged).
+void check_read(herr_t status, const std::filesystem::path& path, std::string_view what) {
+  if (status < 0) throw Error(fmt::format("{}: HDF5 failed to {}", path.string(), what));
 }
 
 /// Creates the groups of "a/b/c" (all but the last part) under `root`.
@@ -216,7 +223,7 @@ herr_t read_object(hid_t root, const char* name, const H5L_info_t* /*info*/, voi
     const std::string what = fmt::format("read /state/{} (a checksum failed, or the file is damaged)", name);
     if (cls == H5T_STRING) {
       std::string value(H5Tget_size(type), '\0');
-      check(H5Dread(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, value.data()), path, what);
+      check_read(H5Dread(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, value.data()), path, what);
       value.resize(std::strlen(value.c_str()));
       visit.record->put_string(name, value);
       return 0;
@@ -232,11 +239,11 @@ herr_t read_object(hid_t root, const char* name, const H5L_info_t* /*info*/, voi
     if (a.integer) {
       a.integers.resize(a.size());
       if (!a.integers.empty())
-        check(H5Dread(set, H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.integers.data()), path, what);
+        check_read(H5Dread(set, H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.integers.data()), path, what);
     } else {
       a.reals.resize(a.size());
       if (!a.reals.empty())
-        check(H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.reals.data()), path, what);
+        check_read(H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, a.reals.data()), path, what);
     }
     visit.record->put_array(name, std::move(a));
     return 0;
@@ -253,6 +260,21 @@ struct CheckpointWriter::Impl {
   std::filesystem::path path, folder, temporary;
   H5Handle file, state;
   bool committed = false;
+
+  /// Closes and removes the unfinished temporary file. Its space is freed
+  /// first: a write that failed for want of space (a full disk, a quota, a
+  /// size limit) would fail again when HDF5 flushes at closing.
+  void discard() {
+    if (file.valid()) {
+      void* handle = nullptr;
+      if (H5Fget_vfd_handle(file, H5P_DEFAULT, &handle) >= 0 && handle != nullptr)
+        static_cast<void>(::ftruncate(*static_cast<int*>(handle), 0));
+    }
+    state.reset();
+    file.reset();
+    std::error_code ec;
+    std::filesystem::remove(temporary, ec);
+  }
 };
 
 CheckpointWriter::CheckpointWriter(std::filesystem::path path) : impl_(std::make_unique<Impl>()) {
@@ -261,7 +283,7 @@ CheckpointWriter::CheckpointWriter(std::filesystem::path path) : impl_(std::make
   w.folder = w.path.has_parent_path() ? w.path.parent_path() : std::filesystem::path(".");
   std::error_code ec;
   if (!std::filesystem::is_directory(w.folder, ec))
-    throw Error(fmt::format("{}: cannot write: folder '{}' does not exist", w.path.string(), w.folder.string()));
+    throw WriteError(fmt::format("{}: cannot write: folder '{}' does not exist", w.path.string(), w.folder.string()));
   w.temporary = temporary_name(w.path);
   const std::filesystem::path& shown = w.path;
   H5Handle fcpl(H5Pcreate(H5P_FILE_CREATE), H5Pclose);
@@ -280,18 +302,13 @@ CheckpointWriter::CheckpointWriter(std::filesystem::path path) : impl_(std::make
     w.state = H5Handle(check(H5Gcreate2(w.file, "state", H5P_DEFAULT, gcpl, H5P_DEFAULT), shown, "create /state"),
                        H5Gclose);
   } catch (...) {
-    w.file.reset();
-    std::filesystem::remove(w.temporary, ec);
+    w.discard();
     throw;
   }
 }
 
 CheckpointWriter::~CheckpointWriter() {
-  if (!impl_ || impl_->committed) return;
-  impl_->state.reset();
-  impl_->file.reset();
-  std::error_code ec;
-  std::filesystem::remove(impl_->temporary, ec);
+  if (impl_ && !impl_->committed) impl_->discard();
 }
 
 void CheckpointWriter::put_array(const std::string& name, StateArray array) {
@@ -316,19 +333,19 @@ void CheckpointWriter::commit(const std::function<void()>& before_rename) {
   w.file.reset();
   // The user block: magic, version, length and the checksum of the rest.
   const auto [hash, length] = hash_file(w.temporary, kUserBlock, path);
-  if (length < kUserBlock) throw Error(fmt::format("{}: HDF5 wrote a short file", path.string()));
+  if (length < kUserBlock) throw WriteError(fmt::format("{}: HDF5 wrote a short file", path.string()));
   std::string header = fmt::format("{}\nformat_version {}\nlength {}\nfnv1a64 {:016x}\n", kMagic,
                                    kCheckpointFormatVersion, length, hash);
   header.resize(kUserBlock, '\0');
   const int fd = ::open(w.temporary.c_str(), O_WRONLY | O_NOFOLLOW | O_CLOEXEC);
-  if (fd < 0) throw Error(fmt::format("{}: cannot reopen: {}", path.string(), std::strerror(errno)));
+  if (fd < 0) throw WriteError(fmt::format("{}: cannot reopen: {}", path.string(), std::strerror(errno)));
   const bool ok = ::pwrite(fd, header.data(), kUserBlock, 0) == static_cast<ssize_t>(kUserBlock) && ::fsync(fd) == 0;
   ::close(fd);
-  if (!ok) throw Error(fmt::format("{}: writing failed: {}", path.string(), std::strerror(errno)));
+  if (!ok) throw WriteError(fmt::format("{}: writing failed: {}", path.string(), std::strerror(errno)));
   if (before_rename) before_rename();
   std::error_code ec;
   std::filesystem::rename(w.temporary, path, ec);
-  if (ec) throw Error(fmt::format("{}: cannot replace it: {}", path.string(), ec.message()));
+  if (ec) throw WriteError(fmt::format("{}: cannot replace it: {}", path.string(), ec.message()));
   w.committed = true;
   const int dir = ::open(w.folder.c_str(), O_RDONLY | O_DIRECTORY);
   if (dir >= 0) {

@@ -21,11 +21,12 @@ namespace goo::io {
 namespace {
 
 using detail::H5Handle;
+using detail::io_reason;
 
 std::string frame_group(int frame) { return fmt::format("/frames/{:05d}", frame); }
 
 void check(herr_t status, const std::filesystem::path& path, std::string_view what) {
-  if (status < 0) throw Error(fmt::format("{}: HDF5 failed to {}", path.string(), what));
+  if (status < 0) throw WriteError(fmt::format("{}: HDF5 failed to {}{}", path.string(), what, io_reason()));
 }
 
 template <class Matrix>
@@ -34,7 +35,7 @@ void write_matrix(hid_t group, const char* name, const Matrix& m, hid_t file_typ
   const hsize_t dims[2] = {static_cast<hsize_t>(m.rows()), static_cast<hsize_t>(m.cols())};
   H5Handle space(H5Screate_simple(2, dims, nullptr), H5Sclose);
   H5Handle set(H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
-  if (!set.valid()) throw Error(fmt::format("{}: HDF5 failed to create {}", path.string(), name));
+  if (!set.valid()) throw WriteError(fmt::format("{}: HDF5 failed to create {}{}", path.string(), name, io_reason()));
   if (m.size() > 0) check(H5Dwrite(set, memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, m.data()), path, name);
 }
 
@@ -81,8 +82,13 @@ RunFile::RunFile(const std::filesystem::path& folder, int first_frame) : folder_
   std::error_code ec;
   hid_t f = -1;
   if (first_frame > 0 && std::filesystem::exists(path, ec)) {
-    f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
-    if (f < 0) log().warn("{}: cannot open the run file of the earlier run; starting a new one", path.string());
+    // A damaged run file is the earlier run's frames: never replaced unasked.
+    if (!std::filesystem::is_regular_file(path, ec) || H5Fis_hdf5(path.c_str()) <= 0 ||
+        (f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT)) < 0)
+      throw Error(fmt::format("{}: the earlier run's frames are in this file, and HDF5 cannot open it (damaged?); "
+                              "resuming would replace it: move it away to go on with a new run file (the frames "
+                              "are in {} too)",
+                              path.string(), (folder / "frames").string()));
   }
   if (f >= 0) {
     // Keep the frames before first_frame, drop the rest.
@@ -102,11 +108,15 @@ RunFile::RunFile(const std::filesystem::path& folder, int first_frame) : folder_
     }
   } else {
     f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-    if (f < 0) throw Error(fmt::format("{}: cannot create the run file", path.string()));
+    if (f < 0) throw WriteError(fmt::format("{}: cannot create the run file", path.string()));
   }
   file_ = f;
   if (H5Lexists(f, "/frames", H5P_DEFAULT) <= 0) {
     H5Handle g(H5Gcreate2(f, "/frames", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+    if (!g.valid()) {
+      H5Fclose(f);
+      throw WriteError(fmt::format("{}: HDF5 failed to create /frames", path.string()));
+    }
   }
 }
 
@@ -121,7 +131,7 @@ void RunFile::write_frame(int frame, double time, const TriangleMesh& surface, c
   const std::string name = frame_group(frame);
   if (H5Lexists(file_, name.c_str(), H5P_DEFAULT) > 0) H5Ldelete(file_, name.c_str(), H5P_DEFAULT);
   H5Handle g(H5Gcreate2(file_, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
-  if (!g.valid()) throw Error(fmt::format("{}: HDF5 failed to create {}", path.string(), name));
+  if (!g.valid()) throw WriteError(fmt::format("{}: HDF5 failed to create {}{}", path.string(), name, io_reason()));
   {
     H5Handle space(H5Screate(H5S_SCALAR), H5Sclose);
     H5Handle attr(H5Acreate2(g, "time", H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose);

@@ -21,7 +21,9 @@ class RunFile {
  public:
   /// Opens (or creates) `folder`/run.h5. When continuing a run at
   /// `first_frame`, frames from it on are dropped (they are written again);
-  /// a damaged file from an earlier run is replaced.
+  /// a damaged file from an earlier run is refused (goo::Error), never
+  /// replaced: it holds that run's frames. Failures to write throw
+  /// goo::WriteError.
   RunFile(const std::filesystem::path& folder, int first_frame);
   ~RunFile();
   RunFile(const RunFile&) = delete;
