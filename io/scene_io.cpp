@@ -7,13 +7,16 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <numbers>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <vector>
 
 #include "core/error.h"
+#include "core/memory_budget.h"
 #include "core/primitives.h"
+#include "core/surface_geometry.h"
 #include "io/atomic_file.h"
 #include "io/surface_mesh_io.h"
 #include "io/tet_mesh_io.h"
@@ -233,7 +236,34 @@ std::filesystem::path resolve(const Node& n, const std::filesystem::path& base) 
   return full;
 }
 
-TriangleMesh read_primitive(Node n) {
+/// What the objects read so far will need in memory to be set up, against
+/// what goo may use (core/memory_budget.h): the field that makes a scene
+/// too big is named before anything is allocated.
+class MemoryBudget {
+ public:
+  MemoryBudget() : limit_(static_cast<double>(memory_limit_bytes())) {}
+  void charge(const Node& field, double bytes, std::string_view what) {
+    if (used_ + bytes > limit_)
+      field.fail(fmt::format("gives {}, which needs about {} of memory to set up{}; goo may use {} here (the "
+                             "machine's memory, or GOO_MEMORY_LIMIT)",
+                             what, format_bytes(bytes),
+                             used_ > 0.0 ? fmt::format(" beside the {} of the objects before it", format_bytes(used_))
+                                         : std::string(),
+                             format_bytes(limit_)));
+    used_ += bytes;
+  }
+
+ private:
+  double limit_;
+  double used_ = 0.0;
+};
+
+/// A primitive's triangle count, before it is built (core/primitives.cpp).
+void charge_triangles(MemoryBudget& budget, const Node& field, double triangles) {
+  budget.charge(field, kSetupBytesPerTriangle * triangles, fmt::format("a surface of {:.3g} triangles", triangles));
+}
+
+TriangleMesh read_primitive(Node n, MemoryBudget& budget) {
   const std::string type = n.at("type").choice({"box", "sphere", "cylinder", "torus"});
   TriangleMesh mesh;
   if (type == "box") {
@@ -242,17 +272,22 @@ TriangleMesh read_primitive(Node n) {
     if (!(s.minCoeff() > 0.0)) size.fail("must be positive in every axis");
     int sub = 8;
     optional(n, "subdivisions", sub, [](const Node& v) { return v.integer(1, 1000); });
+    charge_triangles(budget, n.has("subdivisions") ? n.at("subdivisions") : n, 12.0 * sub * sub);
     mesh = make_box(s, sub);
   } else if (type == "sphere") {
     const double r = n.at("radius").positive();
     int seg = 32;
     optional(n, "segments", seg, [](const Node& v) { return v.integer(3, 10000); });
+    charge_triangles(budget, n.has("segments") ? n.at("segments") : n, 2.0 * seg * (std::max(2, seg / 2) - 1));
     mesh = make_sphere(r, seg);
   } else if (type == "cylinder") {
     const double r = n.at("radius").positive();
     const double height = n.at("height").positive();
     int seg = 32;
     optional(n, "segments", seg, [](const Node& v) { return v.integer(3, 10000); });
+    // Bands of about square quads up the side, as make_cylinder makes them.
+    const double bands = std::max(1.0, std::round(height / (2.0 * r * std::sin(std::numbers::pi / seg))));
+    charge_triangles(budget, n.has("segments") ? n.at("segments") : n.at("height"), 2.0 * seg * (bands + 1.0));
     mesh = make_cylinder(r, height, seg);
   } else {
     const double major = n.at("major_radius").positive();
@@ -262,6 +297,8 @@ TriangleMesh read_primitive(Node n) {
     int a = 48, b = 16;
     optional(n, "major_segments", a, [](const Node& v) { return v.integer(3, 10000); });
     optional(n, "minor_segments", b, [](const Node& v) { return v.integer(3, 10000); });
+    const char* larger = a >= b ? "major_segments" : "minor_segments";
+    charge_triangles(budget, n.has(larger) ? n.at(larger) : n, 2.0 * a * b);
     mesh = make_torus(major, minor, a, b);
   }
   n.finish();
@@ -326,7 +363,7 @@ Material read_material(Node n) {
   return m;
 }
 
-SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& base) {
+SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& base, MemoryBudget& budget) {
   SceneObject o;
   o.name = fmt::format("object{}", index);
   optional(n, "name", o.name, [](const Node& v) { return v.string(); });
@@ -343,8 +380,9 @@ SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& 
     } catch (const Error& e) {
       m.fail(fmt::format("cannot be simulated: {}", e.what()));
     }
+    charge_triangles(budget, m, static_cast<double>(o.surface->num_triangles()));
   } else if (has_primitive) {
-    o.surface = read_primitive(n.at("primitive"));
+    o.surface = read_primitive(n.at("primitive"), budget);
   } else {
     const Node m = n.at("tet_mesh");
     const auto path = resolve(m, base);
@@ -353,6 +391,8 @@ SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& 
     } catch (const Error& e) {
       m.fail(fmt::format("cannot be simulated: {}", e.what()));
     }
+    const double elements = static_cast<double>(o.tet_mesh->tets.rows());
+    budget.charge(m, kSetupBytesPerElement * elements, fmt::format("{:.3g} elements", elements));
   }
   Points& x = o.surface ? o.surface->vertices : o.tet_mesh->positions;
   for (Eigen::Index i = 0; i < x.rows(); ++i) x.row(i) = transform.apply(x.row(i).transpose()).transpose();
@@ -383,6 +423,18 @@ SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& 
           .fail(fmt::format("is larger than the object itself ({:.4g} m across)", extent.maxCoeff()));
     if (extent.maxCoeff() / o.lattice_spacing > 2000.0)
       n.at("lattice_spacing").fail("gives more than 2000 lattice cells across the object");
+    // The lattice's block spans the object's box (a cell of margin each
+    // way); the elements at least fill its volume (h³/12 each).
+    const Eigen::Array3d block = (extent.array() / o.lattice_spacing).ceil() + 2.0;
+    const double cells = block.prod();
+    if (cells > kMaxLatticeCells)
+      n.at("lattice_spacing")
+          .fail(fmt::format("gives a lattice block of {:.3g} cells ({:.0f} × {:.0f} × {:.0f}), beyond the {:.3g} that "
+                            "goo's 32-bit element indices reach; choose a larger spacing",
+                            cells, block.x(), block.y(), block.z(), kMaxLatticeCells));
+    const double elements = 12.0 * std::abs(surface_integrals(*o.surface).volume) / std::pow(o.lattice_spacing, 3);
+    budget.charge(n.at("lattice_spacing"), kSetupBytesPerLatticeCell * cells + kSetupBytesPerElement * elements,
+                  fmt::format("a lattice of {:.3g} cells and at least {:.3g} elements", cells, elements));
   } else if (n.has("lattice_spacing")) {
     n.at("lattice_spacing").fail("applies to surface objects only (a tet_mesh is simulated as it is)");
   }
@@ -714,7 +766,9 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::f
     for (std::size_t i = 0; i < o->size(); ++i) s.obstacles.push_back(read_obstacle(o->element(i), i, base_folder));
   Node objects = root.at("objects");
   if (objects.size() == 0) objects.fail("needs at least one object");
-  for (std::size_t i = 0; i < objects.size(); ++i) s.objects.push_back(read_object(objects.element(i), i, base_folder));
+  MemoryBudget budget;
+  for (std::size_t i = 0; i < objects.size(); ++i)
+    s.objects.push_back(read_object(objects.element(i), i, base_folder, budget));
   std::set<std::string> names;
   for (std::size_t i = 0; i < s.objects.size(); ++i)
     if (!names.insert(s.objects[i].name).second)
