@@ -49,6 +49,17 @@ void validate(const Material& m, std::string_view where, char separator) {
   if (!(m.min_mass_fraction >= 0.0 && m.min_mass_fraction <= 1.0)) {
     fail("min_mass_fraction", "in [0, 1]", m.min_mass_fraction);
   }
+  // Stresses are squared (norms, yield tests, the CFL bound): beyond 1e100 Pa
+  // of modulus, a strain of 10¹⁰⁰ would overflow double precision's 1.8e308,
+  // and measured, a body scaled by 2⁵⁰⁰ (E = 6.5e154) no longer moves as it
+  // does unscaled while one scaled by 2⁴⁵⁰ moves bit for bit the same. Every
+  // material is far below (diamond: E = 1.2e12 Pa).
+  constexpr double kMaxStress = 1e100;
+  const char* rule = "at most 1e100 (double precision squares stresses)";
+  if (m.youngs_modulus > kMaxStress) fail("youngs_modulus", rule, m.youngs_modulus);
+  if (m.viscosity > kMaxStress) fail("viscosity", rule, m.viscosity);
+  if (std::isfinite(m.yield_stress) && m.yield_stress > kMaxStress) fail("yield_stress", rule, m.yield_stress);
+  if (m.surface_tension > kMaxStress) fail("surface_tension", rule, m.surface_tension);
 }
 
 namespace {

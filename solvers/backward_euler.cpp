@@ -18,6 +18,9 @@
 namespace goo {
 
 struct BackwardEulerIntegrator::Factor {
+  // A factor that fails (not positive definite) comes back as info(), which
+  // the Newton loop handles; CHOLMOD's own warnings on stderr are silenced.
+  Factor() { llt.cholmod().print = 0; }
   Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;
   int symbolic = 0;
   int analysed_for = -1;  // SparseHessian::builds() when last analysed

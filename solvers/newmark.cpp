@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 #include "core/error.h"
@@ -100,10 +101,6 @@ void NewmarkIntegrator::impose_velocities(const Body& body, double t_next, doubl
 void NewmarkIntegrator::solve_damped(const Body& body, double h, const Points& rhs, Points& v, StepStatus& status) {
   const Index nn = body.num_nodes();
   const Eigen::VectorXd& m = body.masses;
-  auto free_only = [&](Points& a) {
-    for (Index n = 0; n < nn; ++n)
-      if (constrained_[at(n)]) a.row(n).setZero();
-  };
   if (body.material.viscosity == 0.0) {
     for (Index n = 0; n < nn; ++n)
       if (!constrained_[at(n)]) v.row(n) = rhs.row(n) / m[n];
@@ -111,6 +108,34 @@ void NewmarkIntegrator::solve_damped(const Body& body, double h, const Points& r
   }
   // Conjugate gradients on (M + h C) v = rhs over the free nodes, Jacobi
   // (mass) preconditioned; v starts from its current value (a good guess).
+  // The system is solved for v / s, s the power of two nearest the largest
+  // free entry of rhs: exact in binary (the same bits as unscaled), and the
+  // squared norms stay finite for any representable mass, gravity or load
+  // (a density of 1e200 overflowed ‖rhs‖², and the solve was skipped).
+  double largest = 0.0;
+  for (Index n = 0; n < nn; ++n)
+    if (!constrained_[at(n)]) largest = std::max(largest, rhs.row(n).cwiseAbs().maxCoeff());
+  if (!std::isfinite(largest)) {
+    v.setConstant(std::numeric_limits<double>::quiet_NaN());  // diagnosed as a non-finite state
+    return;
+  }
+  if (largest == 0.0) return;  // at rest and unloaded: v as it is
+  int exponent = 0;
+  static_cast<void>(std::frexp(largest, &exponent));
+  const double scale = std::ldexp(1.0, exponent);
+  const Points scaled_rhs = rhs / scale;
+  v /= scale;
+  solve_scaled(body, h, scaled_rhs, v, status);
+  v *= scale;
+}
+
+void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& rhs, Points& v, StepStatus& status) {
+  const Index nn = body.num_nodes();
+  const Eigen::VectorXd& m = body.masses;
+  auto free_only = [&](Points& a) {
+    for (Index n = 0; n < nn; ++n)
+      if (constrained_[at(n)]) a.row(n).setZero();
+  };
   auto apply = [&](const Points& x, Points& out) {
     damping_.apply(body, elastic_.elastic_deformation(), elastic_.inverse_plastic_deformation(), x, Cp_);  // −C x
     out = x;

@@ -74,6 +74,8 @@ class NewmarkIntegrator {
   void apply_gravity_and_forces(const Body& body, const Points& v, double half_dt, Points& rhs) const;
   /// Solves (M + h C) v = rhs for the free nodes, v fixed at constrained ones.
   void solve_damped(const Body& body, double h, const Points& rhs, Points& v, StepStatus& status);
+  /// solve_damped's CG on a right-hand side scaled to about unit size.
+  void solve_scaled(const Body& body, double h, const Points& rhs, Points& v, StepStatus& status);
   void impose_velocities(const Body& body, double t_next, double dt, Points& v) const;
   Index enforce_ground(Body& body);
 

@@ -278,7 +278,8 @@ void Simulation::check_state(std::size_t i) const {
       finite = false;
       break;
     }
-    const double speed = body.velocities.row(n).norm();
+    double speed = body.velocities.row(n).norm();
+    if (!std::isfinite(speed)) speed = body.velocities.row(n).stableNorm();  // |v|² overflowed
     if (speed > worst_speed) {
       worst_speed = speed;
       worst = n;
