@@ -7,6 +7,7 @@
 #include <fstream>
 #include <ostream>
 
+#include "app/checkpoint_errors.h"
 #include "core/error.h"
 #include "core/surface_check.h"
 #include "io/atomic_file.h"
@@ -99,9 +100,15 @@ bool is_checkpoint(const std::filesystem::path& path) {
   return in && magic == "goo-checkpoint";
 }
 
+int describe_checkpoint(const std::filesystem::path& path, const StateRecord& r, bool json, std::ostream& out);
+
 /// goo info CHECKPOINT: time, frame, bodies and their counts.
 int checkpoint_info(const std::filesystem::path& path, bool json, std::ostream& out) {
   const StateRecord r = io::read_checkpoint(path);
+  return reading_checkpoint(path.string(), "", [&] { return describe_checkpoint(path, r, json, out); });
+}
+
+int describe_checkpoint(const std::filesystem::path& path, const StateRecord& r, bool json, std::ostream& out) {
   nlohmann::json j;
   j["file"] = path.string();
   j["kind"] = "checkpoint";

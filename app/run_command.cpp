@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "app/checkpoint_errors.h"
 #include "app/numbered_name.h"
 #include "app/render_command.h"
 #include "core/error.h"
@@ -306,13 +307,17 @@ int run_scene(const RunOptions& options) {
   Scene scene;
   if (options.resume) {
     resumed = io::read_checkpoint(*options.resume);
-    const std::string& text = resumed->string("scene/text");
+    const std::string& text = reading_checkpoint(*options.resume, "", [&]() -> const std::string& {
+      return resumed->string("scene/text");
+    });
     if (options.scene) io::require_regular_file(*options.scene, "the scene file");
     if (options.scene && slurp(*options.scene) != text)
       throw Error(fmt::format("{}: differs from the scene stored in the checkpoint {}; resume without a scene file, "
                               "or with the one the run started from",
                               *options.scene, *options.resume));
-    scene = io::parse_scene(text, resumed->string("scene/source"), resumed->string("scene/base_folder"));
+    scene = reading_checkpoint(*options.resume, "its scene: ", [&] {
+      return io::parse_scene(text, resumed->string("scene/source"), resumed->string("scene/base_folder"));
+    });
   } else if (options.scene) {
     scene = io::read_scene(*options.scene);
   } else {
@@ -358,7 +363,7 @@ int run_scene(const RunOptions& options) {
   int frame = 0;
   SimulationTotals initial = sim.totals();
   const bool resuming = resumed.has_value();
-  if (resumed) {
+  if (resumed) reading_checkpoint(*options.resume, "", [&] {
     sim.load(*resumed);
     const SimulationTotals loaded = sim.totals();  // the meshes the run goes on from
     initial.nodes = loaded.nodes, initial.elements = loaded.elements;
@@ -375,7 +380,10 @@ int run_scene(const RunOptions& options) {
                               scene.output.fps, expected));
     initial.mass = resumed->real("run/initial_mass");
     initial.volume = resumed->real("run/initial_volume");
-    initial.momentum = resumed->matrix("run/initial_momentum", 3).row(0).transpose();
+    const Eigen::MatrixXd momentum = resumed->matrix("run/initial_momentum", 3);
+    if (momentum.rows() != 1)
+      throw Error(fmt::format("run/initial_momentum must be one row of 3 values, got {} rows", momentum.rows()));
+    initial.momentum = momentum.row(0).transpose();
     if (!(std::isfinite(initial.mass) && initial.mass > 0.0 && std::isfinite(initial.volume) && initial.volume > 0.0 &&
           initial.momentum.allFinite()))
       throw Error(fmt::format("{}: run/initial_mass, run/initial_volume or run/initial_momentum is not a body's "
@@ -385,7 +393,7 @@ int run_scene(const RunOptions& options) {
       throw Error(fmt::format("{}: the checkpoint is at frame {}, past the last frame {} asked for", *options.resume,
                               frame, last_frame));
     resumed.reset();  // the simulation holds the state now; a second copy would last the whole run
-  }
+  });
 
   // 2. The output folder.
   fs::create_directories(folder / "frames", ec);
