@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -20,6 +21,7 @@
 #include "app/render_command.h"
 #include "core/error.h"
 #include "core/log.h"
+#include "core/surface_check.h"
 #include "io/atomic_file.h"
 #include "io/checkpoint.h"
 #include "io/run_file.h"
@@ -246,6 +248,33 @@ void add_run_fields(StateSink& record, const Scene& scene, int frame, const Simu
   record.put_string("scene/text", scene.text);
   record.put_string("scene/source", scene.source);
   record.put_string("scene/base_folder", scene.base_folder);
+  record.put("scene/obstacle_meshes/count", static_cast<std::int64_t>(scene.obstacle_meshes.size()));
+  std::int64_t k = 0;
+  for (const auto& [field, mesh] : scene.obstacle_meshes) {
+    const std::string p = fmt::format("scene/obstacle_meshes/{}/", k++);
+    record.put_string(p + "field", field);
+    record.put_matrix(p + "vertices", mesh.vertices);
+    record.put(p + "triangles", mesh.triangles);
+  }
+}
+
+/// The mesh obstacles' meshes a checkpoint keeps (none in one written before
+/// goo kept them: those are read from their files), checked as a file is.
+std::map<std::string, TriangleMesh> stored_obstacle_meshes(const StateRecord& record) {
+  std::map<std::string, TriangleMesh> meshes;
+  if (!record.has("scene/obstacle_meshes/count")) return meshes;
+  const std::int64_t count = record.integer("scene/obstacle_meshes/count");
+  if (count < 0 || count > 100000)
+    throw Error(fmt::format("scene/obstacle_meshes/count is {}, not a number of obstacles", count));
+  for (std::int64_t k = 0; k < count; ++k) {
+    const std::string p = fmt::format("scene/obstacle_meshes/{}/", k);
+    TriangleMesh mesh;
+    mesh.vertices = record.points(p + "vertices");
+    mesh.triangles = record.triangles(p + "triangles");
+    validate_surface(mesh, p + "vertices and triangles");
+    meshes[record.string(p + "field")] = std::move(mesh);
+  }
+  return meshes;
 }
 
 /// RUN for a checkpoint RUN/checkpoints/frame_NNNNN.h5, if it is one.
@@ -315,8 +344,15 @@ int run_scene(const RunOptions& options) {
       throw Error(fmt::format("{}: differs from the scene stored in the checkpoint {}; resume without a scene file, "
                               "or with the one the run started from",
                               *options.scene, *options.resume));
+    // The bodies come from the checkpoint and the obstacles' meshes too: a
+    // run resumes without the files it began from.
+    const std::map<std::string, TriangleMesh> obstacle_meshes =
+        reading_checkpoint(*options.resume, "", [&] { return stored_obstacle_meshes(*resumed); });
+    io::SceneInputs inputs;
+    inputs.objects_from_checkpoint = true;
+    inputs.obstacle_meshes = &obstacle_meshes;
     scene = reading_checkpoint(*options.resume, "its scene: ", [&] {
-      return io::parse_scene(text, resumed->string("scene/source"), resumed->string("scene/base_folder"));
+      return io::parse_scene(text, resumed->string("scene/source"), resumed->string("scene/base_folder"), inputs);
     });
   } else if (options.scene) {
     scene = io::read_scene(*options.scene);
@@ -354,7 +390,10 @@ int run_scene(const RunOptions& options) {
                             folder.string(), options.resume ? "another run" : "an earlier run"));
   if (holds_a_run(folder) && !its_own && options.overwrite) remove_run(folder);
 
-  Simulation sim(scene);
+  const std::unique_ptr<Simulation> simulation =
+      resumed ? reading_checkpoint(*options.resume, "", [&] { return std::make_unique<Simulation>(scene, *resumed); })
+              : std::make_unique<Simulation>(scene);
+  Simulation& sim = *simulation;
   for (SceneObject& object : scene.objects) {  // meshed: the simulation holds them now
     object.surface.reset();
     object.tet_mesh.reset();
@@ -364,7 +403,6 @@ int run_scene(const RunOptions& options) {
   SimulationTotals initial = sim.totals();
   const bool resuming = resumed.has_value();
   if (resumed) reading_checkpoint(*options.resume, "", [&] {
-    sim.load(*resumed);
     const SimulationTotals loaded = sim.totals();  // the meshes the run goes on from
     initial.nodes = loaded.nodes, initial.elements = loaded.elements;
     initial.surface_vertices = loaded.surface_vertices, initial.surface_triangles = loaded.surface_triangles;
@@ -599,7 +637,8 @@ int run_scene(const RunOptions& options) {
   j["self_collisions"] = to_json(sim.self_collision_totals(), SelfCollisionStats{});
   j["volume_projection"] = to_json(sim.volume_totals());
   j["per_frame"] = per_frame;
-  const std::string text = j.dump(2) + "\n";
+  // File names (the scene's, the bodies') need not be UTF-8: such bytes become U+FFFD.
+  const std::string text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
   try {
     io::write_file_atomically(folder / "summary.json", [&](std::ostream& out) { out << text; });
   } catch (const WriteError& e) {

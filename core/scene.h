@@ -2,6 +2,7 @@
 // A scene: what to simulate and how, as plain values (docs/scene-format.md).
 // io reads it from JSON (meshes loaded, every value checked); solvers build
 // a Simulation from it; app runs it.
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -84,6 +85,10 @@ struct Scene {
   int checkpoint_every_frames = 24;  ///< 0: only when the run ends or is interrupted
   SafetyLimits limits;
   std::optional<SceneCamera> camera;  ///< for pictures only
+  /// Each mesh obstacle's mesh as read from its file (before its scale), by
+  /// the JSON path of its `path` field: checkpoints keep them, so a run
+  /// resumes without the files.
+  std::map<std::string, TriangleMesh> obstacle_meshes;
 };
 
 std::string_view to_string(IntegratorKind kind);

@@ -241,8 +241,11 @@ std::filesystem::path resolve(const Node& n, const std::filesystem::path& base) 
 /// too big is named before anything is allocated.
 class MemoryBudget {
  public:
-  MemoryBudget() : limit_(static_cast<double>(memory_limit_bytes())) {}
+  /// Disabled: nothing is built (a resumed run's bodies come from its checkpoint).
+  explicit MemoryBudget(bool enabled) : limit_(enabled ? static_cast<double>(memory_limit_bytes()) : 0.0), enabled_(enabled) {}
+  [[nodiscard]] bool enabled() const { return enabled_; }
   void charge(const Node& field, double bytes, std::string_view what) {
+    if (!enabled_) return;
     if (used_ + bytes > limit_)
       field.fail(fmt::format("gives {}, which needs about {} of memory to set up{}; goo may use {} here (the "
                              "machine's memory, or GOO_MEMORY_LIMIT)",
@@ -255,15 +258,19 @@ class MemoryBudget {
 
  private:
   double limit_;
+  bool enabled_;
   double used_ = 0.0;
 };
 
 /// A primitive's triangle count, before it is built (core/primitives.cpp).
 void charge_triangles(MemoryBudget& budget, const Node& field, double triangles) {
+  if (!budget.enabled()) return;
   budget.charge(field, kSetupBytesPerTriangle * triangles, fmt::format("a surface of {:.3g} triangles", triangles));
 }
 
-TriangleMesh read_primitive(Node n, MemoryBudget& budget) {
+/// A primitive's surface; with `build` false its fields are only checked
+/// (a resumed run's body comes from its checkpoint).
+TriangleMesh read_primitive(Node n, MemoryBudget& budget, bool build = true) {
   const std::string type = n.at("type").choice({"box", "sphere", "cylinder", "torus"});
   TriangleMesh mesh;
   if (type == "box") {
@@ -273,13 +280,13 @@ TriangleMesh read_primitive(Node n, MemoryBudget& budget) {
     int sub = 8;
     optional(n, "subdivisions", sub, [](const Node& v) { return v.integer(1, 1000); });
     charge_triangles(budget, n.has("subdivisions") ? n.at("subdivisions") : n, 12.0 * sub * sub);
-    mesh = make_box(s, sub);
+    if (build) mesh = make_box(s, sub);
   } else if (type == "sphere") {
     const double r = n.at("radius").positive();
     int seg = 32;
     optional(n, "segments", seg, [](const Node& v) { return v.integer(3, 10000); });
     charge_triangles(budget, n.has("segments") ? n.at("segments") : n, 2.0 * seg * (std::max(2, seg / 2) - 1));
-    mesh = make_sphere(r, seg);
+    if (build) mesh = make_sphere(r, seg);
   } else if (type == "cylinder") {
     const double r = n.at("radius").positive();
     const double height = n.at("height").positive();
@@ -288,7 +295,7 @@ TriangleMesh read_primitive(Node n, MemoryBudget& budget) {
     // Bands of about square quads up the side, as make_cylinder makes them.
     const double bands = std::max(1.0, std::round(height / (2.0 * r * std::sin(std::numbers::pi / seg))));
     charge_triangles(budget, n.has("segments") ? n.at("segments") : n.at("height"), 2.0 * seg * (bands + 1.0));
-    mesh = make_cylinder(r, height, seg);
+    if (build) mesh = make_cylinder(r, height, seg);
   } else {
     const double major = n.at("major_radius").positive();
     const Node minor_node = n.at("minor_radius");
@@ -299,7 +306,7 @@ TriangleMesh read_primitive(Node n, MemoryBudget& budget) {
     optional(n, "minor_segments", b, [](const Node& v) { return v.integer(3, 10000); });
     const char* larger = a >= b ? "major_segments" : "minor_segments";
     charge_triangles(budget, n.has(larger) ? n.at(larger) : n, 2.0 * a * b);
-    mesh = make_torus(major, minor, a, b);
+    if (build) mesh = make_torus(major, minor, a, b);
   }
   n.finish();
   return mesh;
@@ -363,7 +370,9 @@ Material read_material(Node n) {
   return m;
 }
 
-SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& base, MemoryBudget& budget) {
+SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& base, MemoryBudget& budget,
+                        const SceneInputs& inputs) {
+  const bool geometry = !inputs.objects_from_checkpoint;
   SceneObject o;
   o.name = fmt::format("object{}", index);
   optional(n, "name", o.name, [](const Node& v) { return v.string(); });
@@ -372,7 +381,11 @@ SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& 
     n.fail("needs exactly one of 'mesh' (a surface mesh file), 'primitive' or 'tet_mesh' (a tetrahedral mesh file)");
   Transform transform;
   if (auto t = n.get("transform")) transform = read_transform(*t, true);
-  if (has_mesh) {
+  if (!geometry) {
+    // The body comes from the checkpoint: its fields are checked, its files not read.
+    if (has_primitive) static_cast<void>(read_primitive(n.at("primitive"), budget, false));
+    else static_cast<void>(n.at(has_mesh ? "mesh" : "tet_mesh").string());
+  } else if (has_mesh) {
     const Node m = n.at("mesh");
     const auto path = resolve(m, base);
     try {
@@ -394,9 +407,10 @@ SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& 
     const double elements = static_cast<double>(o.tet_mesh->tets.rows());
     budget.charge(m, kSetupBytesPerElement * elements, fmt::format("{:.3g} elements", elements));
   }
-  Points& x = o.surface ? o.surface->vertices : o.tet_mesh->positions;
+  Points none;
+  Points& x = o.surface ? o.surface->vertices : o.tet_mesh ? o.tet_mesh->positions : none;
   for (Eigen::Index i = 0; i < x.rows(); ++i) x.row(i) = transform.apply(x.row(i).transpose()).transpose();
-  {
+  if (geometry) {
     // Double precision resolves a coordinate X to X × 2⁻⁵²: the object must
     // sit near enough the origin that this is below 10⁻⁶ of the finest
     // element it may be meshed with (1e15 m from it, the coordinates of a
@@ -415,7 +429,9 @@ SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& 
     }
   }
   o.material = read_material(n.at("material"));
-  if (o.surface) {
+  if (!has_tets && !geometry) {
+    o.lattice_spacing = n.at("lattice_spacing").positive();
+  } else if (o.surface) {
     o.lattice_spacing = n.at("lattice_spacing").positive();
     const Eigen::Vector3d extent = x.colwise().maxCoeff() - x.colwise().minCoeff();
     if (o.lattice_spacing > extent.maxCoeff())
@@ -449,7 +465,8 @@ SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& 
       optional(*c, "enabled", sc.enabled, [](const Node& v) { return v.boolean(); });
       optional(*c, "thickness", sc.thickness, [](const Node& v) { return v.positive(); });
       optional(*c, "friction", sc.friction, [](const Node& v) { return v.non_negative(); });
-      const Eigen::Vector3d extent = x.colwise().maxCoeff() - x.colwise().minCoeff();
+      const Eigen::Vector3d extent =
+          geometry ? Eigen::Vector3d(x.colwise().maxCoeff() - x.colwise().minCoeff()) : Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
       if (sc.thickness >= 0.1 * extent.maxCoeff())
         c->at("thickness").fail(fmt::format("must be below a tenth of the object's size ({:.4g} m across), got {}",
                                             extent.maxCoeff(), sc.thickness));
@@ -480,7 +497,8 @@ RigidMotion::Key read_key(Node n) {
   return key;
 }
 
-Obstacle read_obstacle(Node n, std::size_t index, const std::filesystem::path& base) {
+Obstacle read_obstacle(Node n, std::size_t index, const std::filesystem::path& base, const SceneInputs& inputs,
+                       std::map<std::string, TriangleMesh>& meshes) {
   Obstacle o;
   o.name = fmt::format("obstacle{}", index);
   optional(n, "name", o.name, [](const Node& v) { return v.string(); });
@@ -509,17 +527,24 @@ Obstacle read_obstacle(Node n, std::size_t index, const std::filesystem::path& b
     o.shape = make_cylinder_shape(r, shape.at("height").positive() / 2.0);
   } else {
     const Node path_node = shape.at("path");
-    const auto path = resolve(path_node, base);
     TriangleMesh mesh;
-    try {
-      mesh = read_surface_mesh(path);
-    } catch (const Error& e) {
-      path_node.fail(fmt::format("cannot be an obstacle: {}", e.what()));
+    std::string path;
+    if (const auto* stored = inputs.obstacle_meshes; stored && stored->contains(path_node.path())) {
+      mesh = stored->at(path_node.path());  // as read when the run began
+      path = path_node.string();
+    } else {
+      path = resolve(path_node, base).string();
+      try {
+        mesh = read_surface_mesh(path);
+      } catch (const Error& e) {
+        path_node.fail(fmt::format("cannot be an obstacle: {}", e.what()));
+      }
     }
+    meshes[path_node.path()] = mesh;
     double scale = 1.0;
     optional(shape, "scale", scale, [](const Node& v) { return v.positive(); });
     mesh.vertices *= scale;
-    o.shape = make_mesh_shape(mesh, path.string());
+    o.shape = make_mesh_shape(mesh, path);
   }
   shape.finish();
   optional(n, "friction", o.friction, [](const Node& v) { return v.non_negative(); });
@@ -653,7 +678,8 @@ SceneCamera read_camera(Node& n) {
 
 }  // namespace
 
-Scene parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder) {
+Scene parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder,
+                  const SceneInputs& inputs) {
   json doc;
   // A strict reader: a key given twice in one object is refused (which of
   // the two was meant?), with its JSON path.
@@ -763,12 +789,13 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::f
     st->finish();
   }
   if (auto o = root.get("obstacles"))
-    for (std::size_t i = 0; i < o->size(); ++i) s.obstacles.push_back(read_obstacle(o->element(i), i, base_folder));
+    for (std::size_t i = 0; i < o->size(); ++i)
+      s.obstacles.push_back(read_obstacle(o->element(i), i, base_folder, inputs, s.obstacle_meshes));
   Node objects = root.at("objects");
   if (objects.size() == 0) objects.fail("needs at least one object");
-  MemoryBudget budget;
+  MemoryBudget budget(!inputs.objects_from_checkpoint);
   for (std::size_t i = 0; i < objects.size(); ++i)
-    s.objects.push_back(read_object(objects.element(i), i, base_folder, budget));
+    s.objects.push_back(read_object(objects.element(i), i, base_folder, budget, inputs));
   std::set<std::string> names;
   for (std::size_t i = 0; i < s.objects.size(); ++i)
     if (!names.insert(s.objects[i].name).second)
@@ -784,6 +811,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::f
       optional(*c, "friction", bc.friction, [](const Node& v) { return v.non_negative(); });
       double smallest = std::numeric_limits<double>::infinity();
       for (const SceneObject& o : s.objects) {
+        if (!o.surface && !o.tet_mesh) continue;  // from a checkpoint: checked when the run began
         const Points& x = o.surface ? o.surface->vertices : o.tet_mesh->positions;
         smallest = std::min(smallest, (x.colwise().maxCoeff() - x.colwise().minCoeff()).maxCoeff());
       }

@@ -17,9 +17,21 @@ inline constexpr int kSceneFormatVersion = 1;
 /// Reads a scene file; relative paths in it resolve from its folder.
 Scene read_scene(const std::filesystem::path& path);
 
+/// Where a scene's geometry comes from when it is not read from its files.
+struct SceneInputs {
+  /// The objects' geometry is not read (their bodies come from a
+  /// checkpoint): mesh and tet_mesh files are not opened, and the checks
+  /// made with their geometry when the run began are not made again.
+  bool objects_from_checkpoint = false;
+  /// Mesh obstacles by the JSON path of their `path` field (as
+  /// Scene::obstacle_meshes); any other is read from its file.
+  const std::map<std::string, TriangleMesh>* obstacle_meshes = nullptr;
+};
+
 /// Parses scene text; `source` names it in errors, relative paths resolve
 /// from `base_folder`.
-Scene parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder);
+Scene parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder,
+                  const SceneInputs& inputs = {});
 
 /// The built-in demo: a cube of gooey jelly dropped on the floor (W&T
 /// figure 3), three seconds at 24 frames per second.

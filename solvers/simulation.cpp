@@ -171,6 +171,25 @@ struct Simulation::Stepper {
   }
 };
 
+Simulation::Simulation(const Scene& scene, const StateRecord& state) : scene_(scene) {
+  for (auto& object : scene_.objects) {
+    object.surface.reset();
+    object.tet_mesh.reset();
+  }
+  if (scene.objects.empty()) throw Error(fmt::format("{}: objects: the scene has no object to simulate", scene.source));
+  for (const SceneObject& object : scene.objects) {
+    SimulationBody b;  // what the state does not hold
+    b.name = object.name;
+    b.regions = object.pinned;
+    b.self_collisions = object.self_collisions;
+    b.body.material = object.material;
+    bodies_.push_back(std::move(b));
+  }
+  together_ = bodies_.size() > 1 && scene_.body_collisions.enabled;
+  steppers_.resize(bodies_.size());
+  load(state);
+}
+
 Simulation::Simulation(const Scene& scene) : scene_(scene) {
   for (auto& object : scene_.objects) {  // the meshes are needed once, below
     object.surface.reset();

@@ -66,6 +66,10 @@ class Simulation {
   /// tetrahedral objects as they are with their boundary as the embedded
   /// surface; initial velocity v + ω × (x − c), c the centroid of the object.
   explicit Simulation(const Scene& scene);
+  /// The bodies as `state` holds them (a checkpoint's, load()'s layout):
+  /// nothing is meshed, and the scene's objects need no geometry. Throws
+  /// goo::Error naming the field for a state that does not fit the scene.
+  Simulation(const Scene& scene, const StateRecord& state);
   ~Simulation();
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;

@@ -470,20 +470,44 @@ TEST(GooRun, ACheckpointHoldingValuesNoRunWritesIsRefused) {
   }
 }
 
-TEST(GooRun, AResumeFindsTheScenesMeshesFromAnyFolder) {
-  // The scene given by a relative path, its mesh relative to it; the resume
-  // runs from another folder: the checkpoint's base folder is absolute.
+TEST(GooRun, AResumeNeedsNoFileButTheCheckpoint) {
+  // The scene given by a relative path, its object's mesh and a mesh
+  // obstacle relative to it; the resume runs from another folder, after the
+  // meshes (and the scene) are gone: the checkpoint holds the bodies and the
+  // obstacles' meshes, and goes on bit for bit as the run not interrupted.
   test::TempDir dir;
   io::write_surface_mesh(dir / "cube.off", make_box({0.1, 0.1, 0.1}, 3));
+  io::write_surface_mesh(dir / "ball.off", make_sphere(0.05, 12));
   std::string scene = kDrop;
-  scene.replace(scene.find("\"primitive\": {\"type\": \"box\", \"size\": [0.1, 0.1, 0.1], \"subdivisions\": 4}"),
-                std::string("\"primitive\": {\"type\": \"box\", \"size\": [0.1, 0.1, 0.1], \"subdivisions\": 4}").size(),
-                "\"mesh\": \"cube.off\"");
+  const std::string box = R"("primitive": {"type": "box", "size": [0.1, 0.1, 0.1], "subdivisions": 4})";
+  scene.replace(scene.find(box), box.size(), R"("mesh": "cube.off")");
+  const std::string ground = R"("ground": {"height": 0.0, "friction": 0.4},)";
+  scene.replace(scene.find(ground), ground.size(),
+                ground + R"( "obstacles": [{"shape": {"type": "mesh", "path": "ball.off"},
+                                            "transform": {"translate": [0.4, 0, 0.05]}}],)");
   dir.write("cube.json", scene);
-  ASSERT_EQ(goo("run cube.json --frames 2 --out run --quiet", fmt::format("cd {} &&", quoted(dir.path()))).exit_code, 0);
+  const std::string in_dir = fmt::format("cd {} &&", quoted(dir.path()));
+  ASSERT_EQ(goo("run cube.json --frames 3 --out whole --quiet", in_dir).exit_code, 0);
+  ASSERT_EQ(goo("run cube.json --frames 2 --out run --quiet", in_dir).exit_code, 0);
+  for (const char* gone : {"cube.off", "ball.off", "cube.json"}) fs::rename(dir / gone, dir / (std::string(gone) + ".away"));
   const CommandResult resumed = goo(args({"run --resume", quoted(dir / "run/checkpoints/frame_00002.h5"), "--frames 3 --quiet"}), "cd / &&");
-  EXPECT_EQ(resumed.exit_code, 0) << resumed.err;
-  EXPECT_TRUE(fs::exists(dir / "run/frames/frame_00003.ply"));
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  EXPECT_EQ(bytes_of(dir / "run/frames/frame_00003.ply"), bytes_of(dir / "whole/frames/frame_00003.ply"));
+  EXPECT_EQ(bytes_of(dir / "run/checkpoints/frame_00003.h5"), bytes_of(dir / "whole/checkpoints/frame_00003.h5"));
+  // A stored obstacle mesh that is not a closed surface is refused, naming it.
+  StateRecord record = io::read_checkpoint(dir / "run/checkpoints/frame_00002.h5");
+  StateRecord broken;
+  for (const auto& [name, array] : record.arrays()) {
+    StateArray a = array;
+    if (name == "scene/obstacle_meshes/0/triangles") a.integers[0] = a.integers[1];  // a degenerate triangle
+    broken.put_array(name, a);
+  }
+  for (const auto& [name, value] : record.strings()) broken.put_string(name, value);
+  fs::create_directories(dir / "broken/checkpoints");
+  io::write_checkpoint(dir / "broken/checkpoints/frame_00002.h5", broken);
+  const CommandResult refused = goo(args({"run --resume", quoted(dir / "broken/checkpoints/frame_00002.h5"), "--frames 3"}));
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_THAT(refused.err, HasSubstr("broken/checkpoints/frame_00002.h5: scene/obstacle_meshes/0/"));
 }
 
 TEST(GooRun, FifosDevicesAndFoldersAreRefusedNotRead) {

@@ -144,6 +144,8 @@ std::vector<Seed> scene_seeds() {
         "remesh": {"enabled": true, "condition_growth": 3, "min_barycentric": -0.2,
                    "upkeep": {"enabled": true, "split_length": 0.5, "collapse_length": 0.05, "max_passes": 16}},
         "output": {"fps": 24, "frames": 3, "formats": ["ply", "obj"], "tet_mesh": true, "hdf5": true},
+        "obstacles": [{"shape": {"type": "mesh", "path": "sphere.off", "scale": 0.5},
+                       "transform": {"translate": [0.6, 0, 0]}}],
         "checkpoint": {"every_frames": 1}, "limits": {"max_speed": 100},
         "camera": {"position": [1, -1, 1], "target": [0, 0, 0.1], "fov_degrees": 40}})"},
       {"mesh.json", R"({"integrator": {"type": "backward_euler", "time_step": 0.005},
@@ -374,6 +376,7 @@ struct Harness {
       // The checkpoint seed: a small run's own, at frame 1.
       const fs::path scene = work / "seed.json";
       write_bytes(scene, scenes[0].bytes);
+      io::write_surface_mesh(work / "sphere.off", make_sphere(0.1, 10));
       const Outcome made = run({options.goo, "run", scene.string(), "--frames", "1", "--out", (work / "seed").string(),
                                 "--quiet", "--threads", "1"},
                                work, 10 * options.timeout);
