@@ -133,7 +133,7 @@ int describe_checkpoint(const std::filesystem::path& path, const StateRecord& r,
                            {"lattice", r.integer(p + "lattice") != 0}});
   }
   if (json) {
-    out << j.dump(2) << '\n';
+    out << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';  // file names need not be UTF-8
     return 0;
   }
   auto row = [&](std::string_view key, const std::string& value) { fmt::print(out, "{:<15}{}\n", key, value); };
@@ -161,7 +161,7 @@ int run_info(const std::filesystem::path& mesh_path, bool json, std::ostream& ou
   const TriangleMesh mesh = io::read_surface_mesh(mesh_path, options);
   const SurfaceReport report = analyze_surface(mesh);
   if (json) {
-    out << to_json(mesh_path, report).dump(2) << '\n';
+    out << to_json(mesh_path, report).dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';
   } else {
     print_text(out, mesh_path, report);
   }

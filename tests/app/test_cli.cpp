@@ -64,6 +64,24 @@ TEST(GooInfo, JsonReportParsesAndCarriesTheMeasures) {
   EXPECT_TRUE(j["simulable"].get<bool>());
 }
 
+TEST(GooCommand, FileNamesThatAreNotUtf8AreReportedNotFatal) {
+  // Linux file names are bytes; JSON is UTF-8: such bytes become U+FFFD in
+  // goo info --json and in summary.json (the JSON writer threw: exit 1).
+  test::TempDir dir;
+  const std::string name = "box\xff\xfe.off";
+  io::write_surface_mesh(dir / name, make_box({1.0, 2.0, 3.0}, 2));
+  const CommandResult info = goo("info --json '" + (dir / name).string() + "'");
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_THAT(nlohmann::json::parse(info.out)["file"].get<std::string>(), ::testing::HasSubstr("box\uFFFD\uFFFD.off"));
+  const std::string scene = "s\xff.json";
+  dir.write(scene, R"({"gravity": [0, 0, 0], "objects": [{"primitive": {"type": "box", "size": [0.1, 0.1, 0.1]},
+                        "material": "jiggly_gelatin", "lattice_spacing": 0.05}], "output": {"frames": 1}})");
+  const CommandResult run = goo("run '" + (dir / scene).string() + "' --quiet --out '" + (dir / "out").string() + "'");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto summary = nlohmann::json::parse(slurp(dir / "out/summary.json"));
+  EXPECT_THAT(summary["scene"].get<std::string>(), ::testing::HasSubstr("s\uFFFD.json"));
+}
+
 class GooInfoBadInput : public ::testing::TestWithParam<test::BadMesh> {};
 
 TEST_P(GooInfoBadInput, ExitsTwoWithTheErrorOnStderr) {
