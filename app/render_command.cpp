@@ -364,9 +364,11 @@ int render_run(const RenderOptions& options) {
   const auto [width, height] = parse_size(options.size, each || options.turntable ? 960 : 480, each || options.turntable ? 720 : 360);
   const Scene scene = find_scene(run, options.scene);
   const fs::path out = options.out ? fs::path(*options.out) : run / "render";
+  if (fs::exists(out, error) && !fs::is_directory(out, error))
+    throw Error(fmt::format("{}: --out must be a folder for the pictures, and this is a file", out.string()));
   fs::create_directories(out, error);
   if (error || !fs::is_directory(out, error))
-    throw Error(fmt::format("{}: cannot create the folder for the pictures", out.string()));
+    throw WriteError(fmt::format("{}: cannot create the folder for the pictures: {}", out.string(), error.message()));
   RunPictures pictures(run, all, scene, options.wireframe);
 
   if (options.turntable) {

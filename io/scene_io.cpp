@@ -229,7 +229,12 @@ Transform read_transform(Node n, bool allow_scale) {
 }
 
 std::filesystem::path resolve(const Node& n, const std::filesystem::path& base) {
-  const std::filesystem::path p = n.string();
+  const std::string name = n.string();
+  // The system reads a file name up to its first NUL: "a\u0000b.off" would be "a".
+  if (const auto nul = name.find('\0'); nul != std::string::npos)
+    n.fail(fmt::format("holds a NUL character (at {}), which no file name can: a file name ends there", nul));
+  if (name.empty()) n.fail("is empty; it must name a file");
+  const std::filesystem::path p = name;
   const std::filesystem::path full = p.is_absolute() ? p : base / p;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(full, ec)) n.fail(fmt::format("names no readable file ('{}')", full.string()));

@@ -168,5 +168,21 @@ TEST(GooRunOutput, ADamagedRunFileIsRefusedOnResumeAndKept) {
   EXPECT_THAT(xdmf, ::testing::Not(HasSubstr("frame 00001")));
 }
 
+TEST(GooRenderOutput, APictureThatCannotBeWrittenIsExitFourAndAFileForAFolderExitTwo) {
+  test::TempDir dir;
+  dir.write("drop.json", kDrop);
+  ASSERT_EQ(goo(fmt::format("run {} --frames 1 --out {} --quiet", quoted(dir / "drop.json"), quoted(dir / "run"))).exit_code, 0);
+  // A contact sheet is tens of kilobytes: 4 KiB holds none of it.
+  const CommandResult limited = goo_limited(4096, fmt::format("render {} --quiet", quoted(dir / "run")));
+  EXPECT_EQ(limited.exit_code, 4) << limited.err;
+  EXPECT_THAT(limited.err, HasSubstr("sheet.png"));
+  EXPECT_THAT(temporaries(dir / "run"), ::testing::IsEmpty());
+  EXPECT_FALSE(fs::exists(dir / "run/render/sheet.png"));
+  dir.write("a_file", "x");
+  const CommandResult file = goo(fmt::format("render {} --out {} --quiet", quoted(dir / "run"), quoted(dir / "a_file")));
+  EXPECT_EQ(file.exit_code, 2) << file.err;
+  EXPECT_THAT(file.err, HasSubstr("a_file: --out must be a folder"));
+}
+
 }  // namespace
 }  // namespace goo
