@@ -1,6 +1,7 @@
 #include "meshing/surface_upkeep.h"
 
 #include <algorithm>
+#include <optional>
 #include <cmath>
 #include <unordered_map>
 #include <vector>
@@ -155,7 +156,10 @@ struct CollapsePass {
   double volume_change = 0.0;
 };
 
-CollapsePass collapse_pass(TriangleMesh& s, double limit, double cell) {
+/// `blockers`: other surfaces the new fans must not meet either (with
+/// `blocker_grid` over their triangles).
+CollapsePass collapse_pass(TriangleMesh& s, double limit, double cell, const TriangleMesh* blockers,
+                           const TriangleGrid* blocker_grid) {
   CollapsePass out;
   // Edges shorter than the limit when the pass starts, shortest first. (A
   // collapse moves vertices, but only those of edges it marks dirty, which
@@ -282,6 +286,18 @@ CollapsePass collapse_pass(TriangleMesh& s, double limit, double cell) {
         if (crosses) break;
       }
       if (crosses) break;
+      if (blockers) {
+        const Eigen::Vector3d f0 = point(s, s.triangles(f, 0)), f1 = point(s, s.triangles(f, 1)),
+                              f2 = point(s, s.triangles(f, 2));
+        for (const Index g : blocker_grid->near(fan_box))
+          if (TriangleGrid::box(*blockers, g).intersects(fan_box) &&
+              triangles_intersect(f0, f1, f2, point(*blockers, blockers->triangles(g, 0)),
+                                  point(*blockers, blockers->triangles(g, 1)), point(*blockers, blockers->triangles(g, 2)))) {
+            crosses = true;
+            break;
+          }
+        if (crosses) break;
+      }
     }
     if (crosses) {
       s.vertices.row(a) = old_a.transpose();
@@ -314,7 +330,8 @@ CollapsePass collapse_pass(TriangleMesh& s, double limit, double cell) {
 
 }  // namespace
 
-UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSettings& settings) {
+UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSettings& settings,
+                            const TriangleMesh* blockers) {
   if (!(settings.collapse_length >= 0.0) || !(settings.split_length > 2.0 * settings.collapse_length))
     throw Error("surface upkeep: split_length must exceed twice collapse_length (or edges would flip-flop)");
   UpkeepReport report;
@@ -323,8 +340,13 @@ UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSetting
     report.splits += n;
     if (n == 0) break;
   }
+  const double cell = settings.split_length * h;
+  const bool blocked = blockers != nullptr && blockers->num_triangles() > 0;
+  const std::optional<TriangleGrid> blocker_grid =
+      blocked ? std::optional<TriangleGrid>(TriangleGrid(*blockers, cell)) : std::nullopt;
   for (int pass = 0; pass < settings.max_passes; ++pass) {
-    const CollapsePass c = collapse_pass(surface, settings.collapse_length * h, settings.split_length * h);
+    const CollapsePass c = collapse_pass(surface, settings.collapse_length * h, cell, blocked ? blockers : nullptr,
+                                         blocked ? &*blocker_grid : nullptr);
     report.collapses += c.collapses;
     report.refused += c.refused;
     report.refused_crossing += c.refused_crossing;

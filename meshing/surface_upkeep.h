@@ -30,6 +30,10 @@ struct UpkeepReport {
 ///   through itself). The merged vertex goes where the enclosed volume
 ///   is unchanged (the change is affine in its position: solved along ab,
 ///   clamped to the segment), else the nearest point of the segment.
-UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSettings& settings = {});
+/// With `blockers` (the other bodies' surfaces, at their places), a
+/// collapse whose new fan meets one of their triangles is refused too: a
+/// body's upkeep never makes it pass through another body.
+UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSettings& settings = {},
+                            const TriangleMesh* blockers = nullptr);
 
 }  // namespace goo

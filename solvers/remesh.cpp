@@ -83,13 +83,13 @@ MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, doub
 }
 
 MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, RemeshReport* report,
-                  const UpkeepSettings* upkeep) {
+                  const UpkeepSettings* upkeep, const TriangleMesh* others) {
   StageTimer timer;
   RemeshTimes times;
   TriangleMesh upkept;
   if (upkeep) {
     upkept = current;
-    const UpkeepReport done = upkeep_surface(upkept, h, *upkeep);
+    const UpkeepReport done = upkeep_surface(upkept, h, *upkeep, others);
     if (report) report->upkeep = done;
   }
   times.upkeep = timer.lap();

@@ -71,8 +71,9 @@ MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, doub
 /// The surface does not move: it is re-embedded at the same positions.
 /// With `upkeep`, long edges are split and short ones collapsed first
 /// (W&T fig. 8); splits move nothing, collapses change the volume by at most
-/// report->upkeep.volume_change_bound.
+/// report->upkeep.volume_change_bound, and none makes the surface meet
+/// itself or `others` (the other bodies' surfaces).
 MeshedBody remesh(const Body& body, const TriangleMesh& surface, double h, RemeshReport* report = nullptr,
-                  const UpkeepSettings* upkeep = nullptr);
+                  const UpkeepSettings* upkeep = nullptr, const TriangleMesh* others = nullptr);
 
 }  // namespace goo

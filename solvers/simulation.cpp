@@ -520,10 +520,12 @@ void Simulation::remesh_if_due(std::size_t i) {
   }
   RemeshReport report;
   const double t = s.time();
+  // Bodies that collide: the upkeep's collapses must not pass through them.
+  const TriangleMesh others = together_ ? surfaces_except(i) : TriangleMesh{};
   std::optional<MeshedBody> attempt;
   try {
-    attempt = remesh(b.body, surface, b.h, &report,
-                     scene_.remesh.upkeep ? &scene_.remesh.upkeep_settings : nullptr);
+    attempt = remesh(b.body, surface, b.h, &report, scene_.remesh.upkeep ? &scene_.remesh.upkeep_settings : nullptr,
+                     together_ ? &others : nullptr);
   } catch (const Error& e) {
     // A mesh with no valid element left (every element inverted) cannot
     // carry its state across; the elasticity turns the elements back first.
@@ -596,17 +598,23 @@ SimulationTotals Simulation::totals() const {
 }
 
 TriangleMesh Simulation::surface() const {
+  return surfaces_except(bodies_.size());
+}
+
+TriangleMesh Simulation::surfaces_except(std::size_t skipped) const {
   TriangleMesh out;
   Index vertices = 0, triangles = 0;
-  for (const auto& b : bodies_) {
-    vertices += b.body.embedding.num_vertices();
-    triangles += static_cast<Index>(b.body.surface_triangles.rows());
+  for (std::size_t k = 0; k < bodies_.size(); ++k) {
+    if (k == skipped) continue;
+    vertices += bodies_[k].body.embedding.num_vertices();
+    triangles += static_cast<Index>(bodies_[k].body.surface_triangles.rows());
   }
   out.vertices.resize(vertices, 3);
   out.triangles.resize(triangles, 3);
   Index v0 = 0, t0 = 0;
-  for (const auto& b : bodies_) {
-    const TriangleMesh s = b.body.surface();
+  for (std::size_t k = 0; k < bodies_.size(); ++k) {
+    if (k == skipped) continue;
+    const TriangleMesh s = bodies_[k].body.surface();
     out.vertices.middleRows(v0, s.vertices.rows()) = s.vertices;
     out.triangles.middleRows(t0, s.triangles.rows()) = s.triangles.array() + v0;
     v0 += static_cast<Index>(s.vertices.rows());

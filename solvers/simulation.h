@@ -116,6 +116,8 @@ class Simulation {
 
  private:
   struct Stepper;
+  /// The surfaces of every body but `skipped` in one mesh (body order).
+  [[nodiscard]] TriangleMesh surfaces_except(std::size_t skipped) const;
   void attach(std::size_t i, double time);  ///< (re)builds body i's constraints and integrator, its clock at `time`
   /// One step of body i alone (its own Δt, at most max_dt), then checks and a re-mesh if due.
   void step_body(std::size_t i, double max_dt);

@@ -81,6 +81,54 @@ TEST(SurfaceUpkeep, RefusesThresholdsThatWouldFlipFlop) {
   EXPECT_ANY_THROW(upkeep_surface(s, 1.0, settings));
 }
 
+/// Triangle pairs, one of `a` and one of `b`, that intersect (exactly).
+std::size_t crossings_between(const TriangleMesh& a, const TriangleMesh& b) {
+  std::size_t n = 0;
+  for (Index s = 0; s < a.num_triangles(); ++s)
+    for (Index t = 0; t < b.num_triangles(); ++t) {
+      const auto p = [](const TriangleMesh& m, Index f, int k) -> Eigen::Vector3d {
+        return m.vertices.row(m.triangles(f, k)).transpose();
+      };
+      if (triangles_intersect(p(a, s, 0), p(a, s, 1), p(a, s, 2), p(b, t, 0), p(b, t, 1), p(b, t, 2))) ++n;
+    }
+  return n;
+}
+
+TEST(SurfaceUpkeep, CollapsesNeverMakeTheSurfacePassThroughAnotherBody) {
+  // A dent in the top of a box, one of its edges short; a small body rests
+  // in the dent, outside the box. Collapsing that edge fills the dent, and
+  // the box would swallow the small body: with it as a blocker, the
+  // collapse is refused.
+  TriangleMesh box = make_box(Eigen::Vector3d::Ones(), 10);  // top face z = 0.5, vertices 0.1 apart
+  Index dent = -1, beside = -1;
+  for (Index v = 0; v < box.num_vertices(); ++v) {
+    const Eigen::Vector3d x = box.vertices.row(v).transpose();
+    if ((x - Eigen::Vector3d(0, 0, 0.5)).norm() < 1e-12) dent = v;
+    if ((x - Eigen::Vector3d(0.1, 0, 0.5)).norm() < 1e-12) beside = v;
+  }
+  ASSERT_GE(dent, 0);
+  ASSERT_GE(beside, 0);
+  box.vertices.row(dent) = Eigen::RowVector3d(0, 0, 0.45);
+  box.vertices.row(beside) = Eigen::RowVector3d(0.01, 0, 0.5);  // the edge dent–beside: 0.051 long
+  TriangleMesh pebble = make_box(Eigen::Vector3d::Constant(0.01), 1);
+  pebble.vertices.rowwise() += Eigen::RowVector3d(-0.03, 0.0, 0.485);  // in the dent, above its floor
+  ASSERT_EQ(crossings_between(box, pebble), 0u);
+  ASSERT_EQ(self_intersecting_pairs(box).size(), 0u);
+  UpkeepSettings settings;
+  settings.split_length = 1.0;  // no splits: edges are 0.1
+  settings.collapse_length = 0.06;
+  TriangleMesh alone = box;
+  const UpkeepReport free = upkeep_surface(alone, 1.0, settings);
+  ASSERT_GT(free.collapses, 0);
+  EXPECT_GT(crossings_between(alone, pebble), 0u) << "the case must cross without the blocker";
+  TriangleMesh blocked = box;
+  const UpkeepReport report = upkeep_surface(blocked, 1.0, settings, &pebble);
+  EXPECT_GT(report.refused_crossing, 0);
+  EXPECT_EQ(crossings_between(blocked, pebble), 0u);
+  EXPECT_EQ(self_intersecting_pairs(blocked).size(), 0u);
+  expect_closed_manifold(blocked);
+}
+
 }  // namespace
 }  // namespace goo
 
