@@ -40,18 +40,6 @@ std::string bytes_of(const fs::path& p) {
   return s.str();
 }
 
-/// A plastic cube dropped on the floor: contacts, plastic flow, re-meshes.
-const char* kDrop = R"({
-  "ground": {"height": 0.0, "friction": 0.4},
-  "objects": [{"name": "cube", "primitive": {"type": "box", "size": [0.1, 0.1, 0.1], "subdivisions": 4},
-               "transform": {"translate": [0, 0, 0.06], "rotate_degrees": [10, 20, 0]},
-               "velocity": [0.2, 0, -1.5],
-               "material": {"preset": "splashing_fluid", "youngs_modulus": 2e4, "min_mass_fraction": 0.05},
-               "lattice_spacing": 0.03}],
-  "output": {"fps": 24, "frames": 4},
-  "checkpoint": {"every_frames": 2}
-})";
-
 void expect_same_frames(const fs::path& a, const fs::path& b, int frames) {
   for (int f = 0; f <= frames; ++f) {
     const std::string name = fmt::format("frames/frame_{:05d}.ply", f);

@@ -21,18 +21,13 @@ using ::testing::HasSubstr;
 
 std::string quoted(const fs::path& p) { return fmt::format("'{}'", p.string()); }
 
-/// A plastic cube dropped on the floor: it re-meshes, so frame 1 on are
-/// finer than frame 0; a checkpoint at frame 2.
-const char* kDrop = R"({
-  "ground": {"height": 0.0, "friction": 0.4},
-  "objects": [{"name": "cube", "primitive": {"type": "box", "size": [0.1, 0.1, 0.1], "subdivisions": 4},
-               "transform": {"translate": [0, 0, 0.06], "rotate_degrees": [10, 20, 0]},
-               "velocity": [0.2, 0, -1.5],
-               "material": {"preset": "splashing_fluid", "youngs_modulus": 2e4, "min_mass_fraction": 0.05},
-               "lattice_spacing": 0.03}],
-  "output": {"fps": 24, "frames": 2},
-  "checkpoint": {"every_frames": 2}
-})";
+/// run_goo.h's dropped cube to frame 2, its checkpoint there: it re-meshes,
+/// so frames 1 and 2 are finer than frame 0.
+const std::string kDropToFrame2 = [] {
+  std::string scene = kDrop;
+  scene.replace(scene.find("\"frames\": 4"), 11, "\"frames\": 2");
+  return scene;
+}();
 
 std::uintmax_t size_of(const fs::path& p) { return fs::file_size(p); }
 
@@ -51,7 +46,7 @@ CommandResult goo_limited(std::uintmax_t bytes, const std::string& arguments) {
 
 TEST(GooRunOutput, ACheckpointThatCannotBeWrittenEndsTheRunWithExitFourKeepingTheFrames) {
   test::TempDir dir;
-  dir.write("drop.json", kDrop);
+  dir.write("drop.json", kDropToFrame2);
   ASSERT_EQ(goo(fmt::format("run {} --out {} --quiet", quoted(dir / "drop.json"), quoted(dir / "free"))).exit_code, 0);
   // A limit between every other file and the checkpoint: only the checkpoint fails.
   const std::uintmax_t checkpoint = size_of(dir / "free/checkpoints/frame_00002.h5");
@@ -79,7 +74,7 @@ TEST(GooRunOutput, ACheckpointThatCannotBeWrittenEndsTheRunWithExitFourKeepingTh
 
 TEST(GooRunOutput, AFrameThatCannotBeWrittenEndsTheRunWithExitFourAndASummary) {
   test::TempDir dir;
-  std::string scene = kDrop;
+  std::string scene = kDropToFrame2;
   scene.replace(scene.find("\"subdivisions\": 4"), 17, "\"subdivisions\": 12");  // frame 0 four times the summary
   dir.write("drop.json", scene);
   ASSERT_EQ(goo(fmt::format("run {} --frames 1 --out {} --quiet", quoted(dir / "drop.json"), quoted(dir / "free"))).exit_code, 0);
@@ -123,7 +118,7 @@ TEST(GooRunOutput, AFullDiskEndsTheRunWithExitFourWhereverItFills) {
   // The same promise when the disk itself fills, at every size from frame
   // 0 not fitting to the last checkpoint not fitting.
   test::TempDir dir;
-  dir.write("drop.json", kDrop);
+  dir.write("drop.json", kDropToFrame2);
   for (const int kib : {8, 64, 160, 320}) {
     SCOPED_TRACE(fmt::format("{} KiB", kib));
     SmallDisk disk(dir / fmt::format("disk{}", kib), kib);
@@ -143,7 +138,7 @@ TEST(GooRunOutput, AFullDiskEndsTheRunWithExitFourWhereverItFills) {
 
 TEST(GooRunOutput, ADamagedRunFileIsRefusedOnResumeAndKept) {
   test::TempDir dir;
-  std::string scene = kDrop;
+  std::string scene = kDropToFrame2;
   scene.replace(scene.find("\"every_frames\": 2"), 17, "\"every_frames\": 1");
   dir.write("drop.json", scene);
   ASSERT_EQ(goo(fmt::format("run {} --out {} --quiet", quoted(dir / "drop.json"), quoted(dir / "a"))).exit_code, 0);
@@ -170,7 +165,7 @@ TEST(GooRunOutput, ADamagedRunFileIsRefusedOnResumeAndKept) {
 
 TEST(GooRenderOutput, APictureThatCannotBeWrittenIsExitFourAndAFileForAFolderExitTwo) {
   test::TempDir dir;
-  dir.write("drop.json", kDrop);
+  dir.write("drop.json", kDropToFrame2);
   ASSERT_EQ(goo(fmt::format("run {} --frames 1 --out {} --quiet", quoted(dir / "drop.json"), quoted(dir / "run"))).exit_code, 0);
   // A contact sheet is tens of kilobytes: 4 KiB holds none of it.
   const CommandResult limited = goo_limited(4096, fmt::format("render {} --quiet", quoted(dir / "run")));
