@@ -99,6 +99,7 @@ struct UpkeepSettings {
   double split_length = 0.5;     ///< split edges longer than this × h
   double collapse_length = 0.05; ///< collapse edges shorter than this × h
   int max_passes = 16;
+  bool flips = true;  ///< flip diagonals of nearly flat quads to the Delaunay one (removes slivers)
 };
 
 }  // namespace goo

@@ -634,6 +634,7 @@ void read_remesh(Node n, RemeshSettings& r) {
       optional(*u, "split_length", us.split_length, [](const Node& v) { return v.positive(); });
       optional(*u, "collapse_length", us.collapse_length, [](const Node& v) { return v.positive(); });
       optional(*u, "max_passes", us.max_passes, [](const Node& v) { return v.integer(1, 1000); });
+      optional(*u, "flips", us.flips, [](const Node& v) { return v.boolean(); });
       if (!(us.collapse_length < 0.5 * us.split_length))
         u->fail(fmt::format("needs collapse_length ({}) below half of split_length ({}), or edges flip between the two",
                             us.collapse_length, us.split_length));

@@ -1,11 +1,14 @@
 #include "meshing/surface_upkeep.h"
 
 #include <algorithm>
+#include <array>
+#include <numbers>
 #include <optional>
 #include <cmath>
 #include <unordered_map>
 #include <vector>
 
+#include "core/contact/ccd.h"
 #include "core/error.h"
 #include "core/parallel.h"
 #include "core/polygon_soup.h"
@@ -328,6 +331,136 @@ CollapsePass collapse_pass(TriangleMesh& s, double limit, double cell, const Tri
   return out;
 }
 
+struct FlipPass {
+  Index flips = 0;
+  Index refused_crossing = 0;
+  double volume_change = 0.0;
+};
+
+/// The angle at corner c of the triangle (a, b, c), radians.
+double angle_at(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d u = a - c, v = b - c;
+  return std::atan2(u.cross(v).norm(), u.dot(v));
+}
+
+/// Edge flips (Delaunay in the surface): the diagonal ab of the quad of two
+/// triangles (a, b, c), (b, a, d), one of them a sliver (an angle below
+/// 15°), becomes cd where the angles facing ab sum past π, most violating
+/// first, each triangle at most once a pass; only
+/// where the quad is nearly flat (the diagonals within kFlat × the shorter
+/// of them: the surface moves by at most that), cd is no edge yet, the new
+/// triangles neither fold more than the old nor meet another triangle (or
+/// a blocker). Slivers, whose normals turn with any small move of a corner,
+/// are what creases a flowing surface; a flip removes them and moves no
+/// vertex.
+FlipPass flip_pass(TriangleMesh& s, double cell, const TriangleMesh* blockers, const TriangleGrid* blocker_grid) {
+  constexpr double kFlat = 0.1;
+  constexpr double kViolation = 1e-6;  // radians past π: no flip back and forth between cocircular diagonals
+  constexpr double kSliver = 15.0 * std::numbers::pi / 180.0;  // a triangle with an angle this sharp is a sliver
+  FlipPass out;
+  const Index nt = s.num_triangles();
+  // (a, b, triangle, corner) for every side, sorted: runs of two are the interior edges.
+  std::vector<std::array<Index, 4>> sides;
+  sides.reserve(at(nt) * 3);
+  for (Index t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k) {
+      const Index a = s.triangles(t, k), b = s.triangles(t, (k + 1) % 3);
+      sides.push_back({std::min(a, b), std::max(a, b), t, k});
+    }
+  std::sort(sides.begin(), sides.end());
+  std::unordered_map<Edge, int, EdgeHash> edges;  // every edge, with its triangle count
+  edges.reserve(sides.size() / 2 + 1);
+  struct Candidate {
+    double excess;  // α_c + α_d − π
+    Index t1, k1, t2;
+  };
+  std::vector<Candidate> candidates;
+  for (std::size_t i = 0; i < sides.size(); ++i) {
+    ++edges[Edge{sides[i][0], sides[i][1]}];
+    if (i + 1 < sides.size() && sides[i][0] == sides[i + 1][0] && sides[i][1] == sides[i + 1][1] &&
+        (i + 2 >= sides.size() || sides[i + 2][0] != sides[i][0] || sides[i + 2][1] != sides[i][1]) &&
+        (i == 0 || sides[i - 1][0] != sides[i][0] || sides[i - 1][1] != sides[i][1])) {
+      const Index t1 = sides[i][2], k1 = sides[i][3], t2 = sides[i + 1][2], k2 = sides[i + 1][3];
+      const Index a = s.triangles(t1, k1), b = s.triangles(t1, (k1 + 1) % 3), c = s.triangles(t1, (k1 + 2) % 3);
+      const Index d = s.triangles(t2, (k2 + 2) % 3);
+      if (c == d) continue;
+      const Eigen::Vector3d pa = point(s, a), pb = point(s, b), pc = point(s, c), pd = point(s, d);
+      const double excess = angle_at(pa, pb, pc) + angle_at(pb, pa, pd) - std::numbers::pi;
+      // Only where a sliver is: a well-shaped pair is left as it is (each
+      // flip moves the surface a little, and a convex one inwards).
+      const double sharpest = std::min({angle_at(pa, pb, pc), angle_at(pb, pc, pa), angle_at(pc, pa, pb),
+                                        angle_at(pb, pa, pd), angle_at(pa, pd, pb), angle_at(pd, pb, pa)});
+      if (excess > kViolation && sharpest < kSliver) candidates.push_back({excess, t1, k1, t2});
+    }
+  }
+  if (candidates.empty()) return out;
+  std::stable_sort(candidates.begin(), candidates.end(),
+                   [](const Candidate& x, const Candidate& y) { return x.excess > y.excess; });
+  const TriangleGrid before_pass(s, cell);
+  TriangleGrid changed(cell);
+  std::vector<std::uint8_t> touched(at(nt), 0);
+  for (const Candidate& f : candidates) {
+    const Index t1 = f.t1, t2 = f.t2;
+    if (touched[at(t1)] || touched[at(t2)]) continue;
+    const Index a = s.triangles(t1, f.k1), b = s.triangles(t1, (f.k1 + 1) % 3), c = s.triangles(t1, (f.k1 + 2) % 3);
+    Index d = -1;
+    for (int k = 0; k < 3; ++k)
+      if (s.triangles(t2, k) != a && s.triangles(t2, k) != b) d = s.triangles(t2, k);
+    if (d < 0 || edges.contains(edge(c, d))) continue;  // cd is an edge already: the flip would pinch the surface
+    const Eigen::Vector3d pa = point(s, a), pb = point(s, b), pc = point(s, c), pd = point(s, d);
+    if (!(std::sqrt(ccd::segment_segment_distance2(pa, pb, pc, pd)) <= kFlat * std::min((pa - pb).norm(), (pc - pd).norm())))
+      continue;
+    // New triangles (a, d, c) and (d, b, c): the quad's boundary a → d → b → c, as it was.
+    const Eigen::Vector3d n1 = (pb - pa).cross(pc - pa), n2 = (pa - pb).cross(pd - pb);
+    const Eigen::Vector3d m1 = (pd - pa).cross(pc - pa), m2 = (pb - pd).cross(pc - pd);
+    const Eigen::Vector3d mean = n1 + n2;
+    auto cos_between = [](const Eigen::Vector3d& x, const Eigen::Vector3d& y) { return x.dot(y) / (x.norm() * y.norm()); };
+    if (!(m1.norm() > 1e-12 * mean.norm() && m2.norm() > 1e-12 * mean.norm() && m1.dot(mean) > 0.0 && m2.dot(mean) > 0.0))
+      continue;
+    if (!(cos_between(m1, m2) >= cos_between(n1, n2))) continue;  // no more folded than it was
+    s.triangles.row(t1) << a, d, c;
+    s.triangles.row(t2) << d, b, c;
+    bool crosses = false;
+    for (const Index t : {t1, t2}) {
+      const Eigen::AlignedBox3d box = TriangleGrid::box(s, t);
+      for (const TriangleGrid* grid : {&before_pass, static_cast<const TriangleGrid*>(&changed)}) {
+        for (const Index g : grid->near(box))
+          if (g != t1 && g != t2 && TriangleGrid::box(s, g).intersects(box) && triangles_intersect(s, t, g)) {
+            crosses = true;
+            break;
+          }
+        if (crosses) break;
+      }
+      if (!crosses && blockers) {
+        const Eigen::Vector3d f0 = point(s, s.triangles(t, 0)), f1 = point(s, s.triangles(t, 1)),
+                              f2 = point(s, s.triangles(t, 2));
+        for (const Index g : blocker_grid->near(box))
+          if (TriangleGrid::box(*blockers, g).intersects(box) &&
+              triangles_intersect(f0, f1, f2, point(*blockers, blockers->triangles(g, 0)),
+                                  point(*blockers, blockers->triangles(g, 1)), point(*blockers, blockers->triangles(g, 2)))) {
+            crosses = true;
+            break;
+          }
+      }
+      if (crosses) break;
+    }
+    if (crosses) {
+      s.triangles.row(t1) << a, b, c;
+      s.triangles.row(t2) << b, a, d;
+      ++out.refused_crossing;
+      continue;
+    }
+    touched[at(t1)] = touched[at(t2)] = 1;
+    edges.erase(edge(a, b));
+    edges[edge(c, d)] = 2;
+    changed.insert(s, t1);
+    changed.insert(s, t2);
+    out.volume_change += std::abs((pb - pa).dot((pc - pa).cross(pd - pa))) / 6.0;
+    ++out.flips;
+  }
+  return out;
+}
+
 }  // namespace
 
 UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSettings& settings,
@@ -352,6 +485,14 @@ UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSetting
     report.refused_crossing += c.refused_crossing;
     report.volume_change_bound += c.volume_change;
     if (c.collapses == 0) break;
+  }
+  for (int pass = 0; settings.flips && pass < settings.max_passes; ++pass) {
+    const FlipPass f = flip_pass(surface, cell, blocked ? blockers : nullptr, blocked ? &*blocker_grid : nullptr);
+    report.flips += f.flips;
+    report.refused += f.refused_crossing;
+    report.refused_crossing += f.refused_crossing;
+    report.volume_change_bound += f.volume_change;
+    if (f.flips == 0) break;
   }
   return report;
 }

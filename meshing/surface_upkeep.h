@@ -12,9 +12,10 @@ namespace goo {
 struct UpkeepReport {
   Index splits = 0;
   Index collapses = 0;
-  Index refused = 0;                ///< collapses refused (link condition, flipped or degenerate triangles, crossings)
-  Index refused_crossing = 0;       ///< of those, refused because the new fan would meet another triangle
-  double volume_change_bound = 0.0; ///< Σ |ΔV| of the collapses, m³ (0 when every collapse preserved volume)
+  Index flips = 0;
+  Index refused = 0;                ///< collapses and flips refused (link condition, flipped or degenerate triangles, crossings)
+  Index refused_crossing = 0;       ///< of those, refused because the new triangles would meet another triangle
+  double volume_change_bound = 0.0; ///< Σ |ΔV| of the collapses and flips, m³
 };
 
 /// Splits, then collapses, in passes over edges sorted by length (longest
@@ -30,6 +31,14 @@ struct UpkeepReport {
 ///   through itself). The merged vertex goes where the enclosed volume
 ///   is unchanged (the change is affine in its position: solved along ab,
 ///   clamped to the segment), else the nearest point of the segment.
+/// - Flip (settings.flips): where one of an edge's two triangles is a
+///   sliver (an angle below 15°), the two angles facing the edge sum past π
+///   and its quad is nearly flat (the two diagonals within a tenth of the
+///   shorter apart), the edge becomes the other diagonal, unless that is an
+///   edge already, the new pair folds more than the old, or it would meet
+///   another triangle. No vertex moves; slivers (caps and needles), whose
+///   normals turn with any small move, go. The volume changes by the
+///   quad's tetrahedron, counted in volume_change_bound.
 /// With `blockers` (the other bodies' surfaces, at their places), a
 /// collapse whose new fan meets one of their triangles is refused too: a
 /// body's upkeep never makes it pass through another body.

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <numbers>
 #include <random>
 
 #include "core/primitives.h"
@@ -36,6 +37,7 @@ TEST(SurfaceUpkeep, SplitsLeaveEverySurfacePointWhereItWas) {
   const double h = 0.4;
   UpkeepSettings settings;
   settings.collapse_length = 0.0;
+  settings.flips = false;  // they trade diagonals: the point set moves a little
   const UpkeepReport report = upkeep_surface(after, h, settings);
   EXPECT_GT(report.splits, 50);
   EXPECT_EQ(report.collapses, 0);
@@ -92,6 +94,121 @@ std::size_t crossings_between(const TriangleMesh& a, const TriangleMesh& b) {
       if (triangles_intersect(p(a, s, 0), p(a, s, 1), p(a, s, 2), p(b, t, 0), p(b, t, 1), p(b, t, 2))) ++n;
     }
   return n;
+}
+
+/// The smallest angle of any triangle, degrees.
+double smallest_angle(const TriangleMesh& s) {
+  double out = 180.0;
+  for (Index t = 0; t < s.num_triangles(); ++t)
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d a = s.vertices.row(s.triangles(t, k)).transpose();
+      const Eigen::Vector3d u = s.vertices.row(s.triangles(t, (k + 1) % 3)).transpose() - a;
+      const Eigen::Vector3d v = s.vertices.row(s.triangles(t, (k + 2) % 3)).transpose() - a;
+      out = std::min(out, std::atan2(u.cross(v).norm(), u.dot(v)) * 180.0 / std::numbers::pi);
+    }
+  return out;
+}
+
+TEST(SurfaceUpkeep, FlipsRemoveSliversAndTheirCreasesMovingNoVertex) {
+  // A box whose top face holds caps: a vertex moved onto an edge of its
+  // star, a hair (1e-5) past it and 1e-3 above the face. The cap's normal
+  // turns over (a creased edge on a nearly flat face), as a sliver's does
+  // on a flowing surface. Flips restore good triangles; no vertex moves,
+  // the box's own 90° edges stay, and the volume changes by the caps' few
+  // tetrahedra only.
+  TriangleMesh box = make_box(Eigen::Vector3d::Ones(), 12);  // vertices 1/12 apart
+  const double spacing = 1.0 / 12.0;
+  int caps = 0;
+  for (Index v = 0; v < box.num_vertices(); ++v) {
+    const Eigen::Vector3d x = box.vertices.row(v).transpose();
+    const long i = std::lround((x.x() + 0.5) / spacing), j = std::lround((x.y() + 0.5) / spacing);
+    if (std::abs(x.z() - 0.5) > 1e-12 || i % 3 != 1 || j % 3 != 1 || i < 2 || j < 2 || i > 10 || j > 10) continue;
+    for (Index t = 0; t < box.num_triangles(); ++t) {  // v's first triangle (v, a, b)
+      int k = 0;
+      while (k < 3 && box.triangles(t, k) != v) ++k;
+      if (k == 3) continue;
+      const Eigen::Vector3d a = box.vertices.row(box.triangles(t, (k + 1) % 3)).transpose();
+      const Eigen::Vector3d b = box.vertices.row(box.triangles(t, (k + 2) % 3)).transpose();
+      const Eigen::Vector3d middle = 0.5 * (a + b), out = (middle - x).normalized();
+      box.vertices.row(v) = (middle + 1e-5 * out + Eigen::Vector3d(0, 0, 1e-3)).transpose();
+      ++caps;
+      break;
+    }
+  }
+  ASSERT_EQ(caps, 9);
+  const SurfaceQuality before = measure_surface_quality(box);
+  ASSERT_EQ(before.self_intersecting_pairs, 0);
+  ASSERT_GE(before.creased_edges, caps);
+  UpkeepSettings settings;
+  settings.split_length = 10.0;     // no splits
+  settings.collapse_length = 1e-6;  // no collapses
+  TriangleMesh flipped = box;
+  const UpkeepReport report = upkeep_surface(flipped, 1.0, settings);
+  EXPECT_GE(report.flips, caps);
+  EXPECT_EQ(report.splits + report.collapses, 0);
+  EXPECT_TRUE(flipped.vertices == box.vertices);  // bit for bit
+  const SurfaceQuality after = measure_surface_quality(flipped);
+  EXPECT_EQ(after.creased_edges, 0);
+  EXPECT_EQ(after.self_intersecting_pairs, 0);
+  // The caps' angles (about 1.4°) are gone. What the moves leave sharpest is
+  // Delaunay already: with v at the middle of its star's edge from (1, 0)
+  // to (1, 1) (in spacings from where it was), the triangle
+  // (v, (1, 0), (0, −1)) has atan(1/5) = 11.31° at (0, −1), and the angles
+  // facing its long edge sum to 172°.
+  EXPECT_LT(smallest_angle(box), 2.0);
+  EXPECT_GT(smallest_angle(flipped), 11.0);
+  // Each flip changes the volume by its quad's tetrahedron: at most the
+  // lift × the quad's area (1e-3 × spacing²) for a cap's.
+  EXPECT_NEAR(after.volume, before.volume, report.volume_change_bound * (1.0 + 1e-9) + 1e-15);
+  EXPECT_LE(report.volume_change_bound, report.flips * 1e-3 * spacing * spacing);
+  expect_closed_manifold(flipped);
+  // The box's edges: every triangle still faces an axis (the caps' stars
+  // tilt by atan(1e-3 / spacing) < 1°; a flip across a box edge, 45°).
+  for (Index t = 0; t < flipped.num_triangles(); ++t) {
+    const Eigen::Vector3d a = flipped.vertices.row(flipped.triangles(t, 0)).transpose();
+    const Eigen::Vector3d n = (flipped.vertices.row(flipped.triangles(t, 1)).transpose() - a)
+                                  .cross(flipped.vertices.row(flipped.triangles(t, 2)).transpose() - a)
+                                  .normalized();
+    EXPECT_GT(n.cwiseAbs().maxCoeff(), 0.999) << "triangle " << t;
+  }
+  // Without flips, the caps stay.
+  settings.flips = false;
+  TriangleMesh kept = box;
+  EXPECT_EQ(upkeep_surface(kept, 1.0, settings).flips, 0);
+  EXPECT_EQ(measure_surface_quality(kept).creased_edges, before.creased_edges);
+}
+
+TEST(SurfaceUpkeep, FlipsLeaveACurvedSurfaceCloseAndDelaunay) {
+  // A sphere of skewed bands (every other ring turned by 0.45 of a segment):
+  // each quad's short diagonal is the Delaunay one, and near the poles the
+  // long one makes slivers. Flips trade diagonals there only, where the
+  // surface moves by at most a tenth of an edge; the volume changes by at
+  // most the bound reported, and a second pass finds nothing to flip (no
+  // flip-flop).
+  TriangleMesh sphere = make_sphere(1.0, 48);
+  for (Index v = 0; v < sphere.num_vertices(); ++v) {
+    const Eigen::Vector3d x = sphere.vertices.row(v).transpose();
+    const double rho = std::hypot(x.x(), x.y());
+    if (rho < 1e-12) continue;
+    const long ring = std::lround(std::acos(std::clamp(-x.z(), -1.0, 1.0)) / (std::numbers::pi / 24));
+    if (ring % 2 == 0) continue;
+    const double phi = std::atan2(x.y(), x.x()) + 0.45 * 2.0 * std::numbers::pi / 48;
+    sphere.vertices.row(v) = Eigen::RowVector3d(rho * std::cos(phi), rho * std::sin(phi), x.z());
+  }
+  ASSERT_EQ(measure_surface_quality(sphere).self_intersecting_pairs, 0);
+  UpkeepSettings settings;
+  settings.split_length = 10.0;
+  settings.collapse_length = 1e-6;
+  TriangleMesh flipped = sphere;
+  const UpkeepReport report = upkeep_surface(flipped, 1.0, settings);
+  EXPECT_GT(report.flips, 10);
+  expect_closed_manifold(flipped);
+  EXPECT_EQ(measure_surface_quality(flipped).self_intersecting_pairs, 0);
+  EXPECT_GT(smallest_angle(flipped), smallest_angle(sphere));
+  const double v0 = surface_integrals(sphere).volume, v1 = surface_integrals(flipped).volume;
+  EXPECT_LE(std::abs(v1 - v0), report.volume_change_bound * (1.0 + 1e-9));
+  EXPECT_LT(std::abs(v1 - v0), 1e-3 * v0);
+  EXPECT_EQ(upkeep_surface(flipped, 1.0, settings).flips, 0);
 }
 
 TEST(SurfaceUpkeep, CollapsesNeverMakeTheSurfacePassThroughAnotherBody) {
