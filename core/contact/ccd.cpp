@@ -118,7 +118,10 @@ Closest closest(PairKind kind, const Points4& x) {
   return c;
 }
 
-std::optional<double> time_of_impact(PairKind kind, const Points4& x, const Points4& d_in, double min_distance) {
+std::optional<double> time_of_impact(PairKind kind, const Points4& x, const Points4& d_in, double min_distance,
+                                     double* clearance) {
+  constexpr double kUnknown = -std::numeric_limits<double>::infinity();
+  if (clearance) *clearance = kUnknown;
   // Relative motion only: take out the mean displacement.
   Points4 d = d_in;
   const Vec3 mean = (d[0] + d[1] + d[2] + d[3]) / 4.0;
@@ -128,21 +131,29 @@ std::optional<double> time_of_impact(PairKind kind, const Points4& x, const Poin
                         : std::max(d[0].norm(), d[1].norm()) + std::max(d[2].norm(), d[3].norm());
   double gap_now = closest(kind, x).distance - min_distance;
   if (gap_now <= 0.0) return 0.0;
-  if (lp == 0.0) return std::nullopt;  // no relative motion: the distance stays
+  if (lp == 0.0) {  // no relative motion: the distance stays
+    if (clearance) *clearance = gap_now - min_distance;
+    return std::nullopt;
+  }
   constexpr double kStep = 0.9;        // the fraction of the safe step taken
   constexpr int kMaxIterations = 10000;
   // Reported within min_distance of contact (or, when that is tiny against
   // the gap, within a tenth of the gap), approaching: there the line of the
   // closest points is the contact normal an impulse needs.
   double stop_gap = std::min((1.0 - kStep) * gap_now, min_distance);
+  double smallest_gap = gap_now;  // over the steps taken: the distance stays above min_distance + (1 − s) of it
   double t = 0.0;
   Points4 xt = x;
   for (int iteration = 0; iteration < kMaxIterations; ++iteration) {
     const double t_next = t + kStep * gap_now / lp;
-    if (t_next >= 1.0) return std::nullopt;  // the safe step covers the rest of [0, 1]
+    if (t_next >= 1.0) {  // the safe step covers the rest of [0, 1]
+      if (clearance) *clearance = (1.0 - kStep) * smallest_gap - min_distance;
+      return std::nullopt;
+    }
     t = t_next;
     for (std::size_t k = 0; k < 4; ++k) xt[k] = x[k] + t * d_in[k];
     gap_now = closest(kind, xt).distance - min_distance;
+    smallest_gap = std::min(smallest_gap, gap_now);
     if (gap_now < stop_gap) {
       if (approach_rate(kind, xt, d_in) < 0.0) return t;
       stop_gap = std::min(stop_gap, (1.0 - kStep) * gap_now);  // close but separating: watch on

@@ -50,6 +50,14 @@ Closest closest(PairKind kind, const Points4& x);
 /// min_distance of 0, within a tenth of its first gap). nullopt: the pair
 /// stays farther than min_distance over the whole step. A pair closer than
 /// min_distance at t = 0 reports 0.
-std::optional<double> time_of_impact(PairKind kind, const Points4& x, const Points4& d, double min_distance);
+///
+/// With `clearance`, a step without impact also tells how far its pair stays
+/// beyond the reporting distance: the pair is at least 2 min_distance +
+/// *clearance apart all step (each safe step of s·gap/l_p keeps the distance
+/// above min_distance + (1 − s) gap). Displacements changed by at most e at
+/// every point of the pair, with e < *clearance, report no impact either
+/// (the distance moves by at most e). With an impact, *clearance is −∞.
+std::optional<double> time_of_impact(PairKind kind, const Points4& x, const Points4& d, double min_distance,
+                                     double* clearance = nullptr);
 
 }  // namespace goo::ccd

@@ -5,6 +5,7 @@
 
 #include <Eigen/SVD>
 #include <algorithm>
+#include <limits>
 #include <map>
 #include <tuple>
 
@@ -269,6 +270,8 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
   });
   candidates_.clear();
   for (const auto& f : found) candidates_.insert(candidates_.end(), f.begin(), f.end());
+  clearance_.assign(candidates_.size(), -std::numeric_limits<double>::infinity());
+  changed_at_.resize(candidates_.size());
   return true;
 }
 
@@ -280,6 +283,15 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
   std::vector<double> toi(candidates_.size(), kNone);
   std::vector<double>& start = start_;
   start.assign(candidates_.size(), kNone);
+  // How far each vertex's displacement has changed since the step's first
+  // detection, summed over detections (a bound on its change since any of them).
+  const Index nv = body.embedding.num_vertices();
+  if (changed_.size() != at(nv) || ds_last_.rows() != nv) {
+    changed_.assign(at(nv), 0.0);
+  } else {
+    for (Index v = 0; v < nv; ++v) changed_[at(v)] += (ds.row(v) - ds_last_.row(v)).cwiseAbs().maxCoeff();
+  }
+  ds_last_ = ds;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, candidates_.size(), 256),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t i = r.begin(); i != r.end(); ++i) {
@@ -303,11 +315,22 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
                           if (inside) continue;  // moved by one affine map that shrinks no distance
                         }
                         const auto kind = static_cast<PairKind>(p.kind);
+                        if (clearance_[i] > 0.0) {  // measured this step without impact: moved enough since?
+                          std::array<double, 4> moved{};
+                          for (std::size_t k = 0; k < 4; ++k) moved[k] = changed_[at(p.vertices[k])] - changed_at_[i][k];
+                          const std::size_t first_side = kind == PairKind::vertex_triangle ? 1 : 2;
+                          double a = 0.0, b = 0.0;
+                          for (std::size_t k = 0; k < 4; ++k) (k < first_side ? a : b) = std::max(k < first_side ? a : b, moved[k]);
+                          if (std::sqrt(3.0) * (a + b) < clearance_[i]) continue;  // still no impact: not measured
+                        }
                         const ccd::Points4 x = gather(xs0, p.vertices);
                         start[i] = ccd::closest(kind, x).distance;
                         if (start[i] == 0.0) continue;  // touching or crossing already: left alone
                         const double keep = start[i] > thickness ? thickness : 0.5 * start[i];
-                        if (const auto t = ccd::time_of_impact(kind, x, gather(ds, p.vertices), keep)) toi[i] = *t;
+                        double clearance = 0.0;
+                        if (const auto t = ccd::time_of_impact(kind, x, gather(ds, p.vertices), keep, &clearance)) toi[i] = *t;
+                        clearance_[i] = clearance;
+                        for (std::size_t k = 0; k < 4; ++k) changed_at_[i][k] = changed_[at(p.vertices[k])];
                       }
                     });
   std::vector<Impact> impacts;
@@ -408,6 +431,9 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   const Points xs0 = body.embedding.surface_positions(body.tets, x0);
   Points ds = body.embedding.surface_positions(body.tets, d);  // W d: the surface's displacements
   find_candidates(body, xs0, ds, thickness, stats);
+  // A new step: every pair is measured at its first detection.
+  std::fill(clearance_.begin(), clearance_.end(), -std::numeric_limits<double>::infinity());
+  ds_last_.resize(0, 3);
   std::vector<Impact> impacts = detect(body, xs0, ds, thickness, nullptr, nullptr, stats);
 
   // Proximity: pairs closer than the thickness at the start are pushed

@@ -144,6 +144,14 @@ class SelfCollisions {
   std::vector<Index> vertex_owner_;          // per vertex, the lowest triangle holding it
   std::vector<Pair> candidates_;
   std::vector<double> start_;  // per candidate, its distance at the step's start (−1: not measured)
+  // Within a step, a pair measured without impact needs no measuring again
+  // until its vertices' displacements have changed by its clearance
+  // (ccd::time_of_impact): impulses move the nodes of a few pairs, and with
+  // them thousands of surface vertices by far less than that.
+  std::vector<double> clearance_;                // per candidate, this step (−∞: to be measured)
+  std::vector<std::array<double, 4>> changed_at_;  // per candidate, its vertices' `changed_` when measured
+  std::vector<double> changed_;  // per surface vertex, Σ over this step's detections of its displacement's change (max coordinate)
+  Points ds_last_;               // the surface displacements of the last detection
   Points list_positions_;       // the surface where the candidate list was built
   std::vector<double> margin_;  // per vertex, how far it may move before the list is built again
   std::vector<double> drift_;   // per vertex, how far it has moved since (this step's start and end, the larger)
