@@ -184,6 +184,14 @@ nlohmann::json to_json(const VolumeProjectionStats& v) {
           {"steps_waited", v.waited}};
 }
 
+nlohmann::json to_json(const DampingSolveStats& d) {
+  return {{"solves", d.solves},
+          {"cg_iterations", d.iterations},
+          {"max_cg_iterations", d.max_iterations},
+          {"max_residual", d.max_residual},
+          {"unconverged", d.unconverged}};
+}
+
 nlohmann::json to_json(const SurfaceQuality& q) {
   return {{"triangles", q.triangles},
           {"edges", q.edges},
@@ -513,6 +521,7 @@ int run_scene(const RunOptions& options) {
                         {"surface", to_json(outputs.quality)},
                         {"self_collisions", to_json(sim.self_collision_totals(), self_before)},
                         {"volume_projection", to_json(sim.take_frame_volume_stats())},
+                        {"damping_solve", to_json(sim.take_frame_damping_stats())},
                         {"integrate_stages", step_stages(st.step, stages_before.step)},
                         {"remesh_stages", remesh_stages(st.remesh_stages, stages_before.remesh_stages)}};
     stages_before = st;
@@ -636,6 +645,7 @@ int run_scene(const RunOptions& options) {
   j["initial_surface"] = initial_surface;
   j["self_collisions"] = to_json(sim.self_collision_totals(), SelfCollisionStats{});
   j["volume_projection"] = to_json(sim.volume_totals());
+  j["damping_solve"] = to_json(sim.damping_totals());
   j["per_frame"] = per_frame;
   // File names (the scene's, the bodies') need not be UTF-8: such bytes become U+FFFD.
   const std::string text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";

@@ -30,6 +30,45 @@ void Damping::apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
   gather_to_nodes(body.incidence, element_forces_, out);
 }
 
+void Damping::diagonal_blocks(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
+                              const std::vector<Eigen::Matrix3d>& Fp_inv, std::vector<Eigen::Matrix3d>& out) {
+  const Index ne = body.num_elements();
+  element_blocks_.resize(at(ne));
+  const double beta = body.material.viscosity;
+  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
+    for (Index e = range.begin(); e != range.end(); ++e) {
+      const Eigen::Matrix3d& G = Fe[at(e)];
+      const Eigen::Matrix3d& Q = Fp_inv[at(e)];
+      const double scale = beta * body.rest_volumes[e] / Q.determinant();  // β W det Fp
+      // Ḟe = Σ_k v_k w_kᵀ with w_k = Qᵀ g_k, g_k node k's shape-function
+      // gradient (rows of Dm⁻¹, g_0 = −Σ): apply's force on node k is
+      // −2 W det(Fp) β Fe sym(Feᵀ Ḟe) w_k, whose derivative by v_k is the
+      // block below, negated.
+      const Eigen::Matrix3d W = Q.transpose() * body.Dm_inv[at(e)].transpose();  // columns w_1..w_3
+      const Eigen::Matrix3d GGt = G * G.transpose();
+      auto& blocks = element_blocks_[at(e)];
+      for (int k = 0; k < 4; ++k) {
+        const Eigen::Vector3d w = k == 0 ? Eigen::Vector3d(-W.rowwise().sum()) : Eigen::Vector3d(W.col(k - 1));
+        const Eigen::Vector3d Gw = G * w;
+        blocks[static_cast<std::size_t>(k)] = scale * (w.squaredNorm() * GGt + Gw * Gw.transpose());
+      }
+    }
+  });
+  const auto& incidence = body.incidence;
+  const auto num_nodes = static_cast<Index>(incidence.offsets.size() - 1);
+  out.resize(at(num_nodes));
+  tbb::parallel_for(tbb::blocked_range<Index>(0, num_nodes, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
+    for (Index n = range.begin(); n != range.end(); ++n) {
+      Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+      for (Index c = incidence.offsets[at(n)]; c < incidence.offsets[at(n) + 1]; ++c) {
+        const Index corner = incidence.corners[at(c)];
+        sum += element_blocks_[at(corner / 4)][static_cast<std::size_t>(corner % 4)];
+      }
+      out[at(n)] = sum;
+    }
+  });
+}
+
 double max_strain_rate(const Body& body, const Points& v) {
   double rate = 0.0;  // max is exact in any order; serial and cheap (no SVD)
   for (Index e = 0; e < body.num_elements(); ++e) rate = std::max(rate, deformation_gradient(body, v, e).norm());

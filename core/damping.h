@@ -8,6 +8,7 @@
 // At rest it equals the corotated damping of algorithms.md; that form,
 // 2β R sym(Rᵀ Ḟ), resists rigid rotation of a deformed element and spins
 // bodies up, which is why goo does not use it (docs/physics.md).
+#include <array>
 #include <vector>
 
 #include "core/body.h"
@@ -23,8 +24,16 @@ class Damping {
   void apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe, const std::vector<Eigen::Matrix3d>& Fp_inv,
              const Points& v, Points& out);
 
+  /// out[n] = node n's own 3×3 block of C (f = −C v), summed over its
+  /// elements in the incidence order: C_nn = Σ_e W det(Fp) β (|w|² Fe Feᵀ
+  /// + (Fe w)(Fe w)ᵀ), w = Fp⁻ᵀ ∇N_n. The damping solve's block-Jacobi
+  /// preconditioner is (m_n I + h C_nn)⁻¹.
+  void diagonal_blocks(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
+                       const std::vector<Eigen::Matrix3d>& Fp_inv, std::vector<Eigen::Matrix3d>& out);
+
  private:
   std::vector<Matrix34> element_forces_;
+  std::vector<std::array<Eigen::Matrix3d, 4>> element_blocks_;
 };
 
 /// max over elements of ‖Ḟ‖_F for velocities v, 1/s.

@@ -19,9 +19,8 @@ namespace goo {
 
 /// What one step did.
 struct StepStatus {
-  double dt = 0.0;           ///< the step taken, s
-  int cg_iterations = 0;     ///< both damping solves together
-  double cg_residual = 0.0;  ///< the larger relative residual of the two
+  double dt = 0.0;  ///< the step taken, s
+  DampingSolveStats damping;  ///< both damping solves together
   Index plastic_elements = 0;
   Index ground_contacts = 0;
   Index collisions = 0;  ///< element corrections of the embedded surface, positions and velocities
@@ -57,6 +56,7 @@ class NewmarkIntegrator {
   void invalidate() {
     have_forces_ = false;
     volume_.reset();
+    increment_.resize(0, 3);  // no warm start: the next steps depend on the body's state alone
   }
 
   /// The time step the next step would take if unlimited by max_dt.
@@ -75,7 +75,8 @@ class NewmarkIntegrator {
   /// Solves (M + h C) v = rhs for the free nodes, v fixed at constrained ones.
   void solve_damped(const Body& body, double h, const Points& rhs, Points& v, StepStatus& status);
   /// solve_damped's CG on a right-hand side scaled to about unit size.
-  void solve_scaled(const Body& body, double h, const Points& rhs, Points& v, StepStatus& status);
+  void remove_net_residual(const Body& body, const Points& r, Points& v) const;
+  void solve_scaled(const Body& body, double h, const Points& rhs, const Points* guess, Points& v, StepStatus& status);
   void impose_velocities(const Body& body, double t_next, double dt, Points& v) const;
   Index enforce_ground(Body& body);
 
@@ -97,6 +98,10 @@ class NewmarkIntegrator {
   std::vector<unsigned char> constrained_;
   // CG work arrays, kept across steps.
   Points r_, z_, p_, Ap_, Cp_;
+  Points increment_;  // the last damping solve's v − v_start (the next one's warm start)
+  std::vector<Eigen::Matrix3d> blocks_;  // C's diagonal blocks at the recorded Fe (fresh while blocks_fresh_)
+  std::vector<Eigen::Matrix3d> inverse_blocks_;  // the solve's preconditioner (m I + h C_nn)⁻¹
+  bool blocks_fresh_ = false;
 };
 
 }  // namespace goo

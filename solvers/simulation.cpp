@@ -324,6 +324,10 @@ void Simulation::record(const Status& status) {
   self_collisions_ += status.self_collisions;
   volume_total_ += status.volume;
   volume_frame_ += status.volume;
+  if constexpr (requires { status.damping; }) {
+    damping_total_ += status.damping;
+    damping_frame_ += status.damping;
+  }
   ++steps_;
 }
 

@@ -105,6 +105,10 @@ class Simulation {
   /// last call of take_frame_volume_stats (which resets them).
   [[nodiscard]] const VolumeProjectionStats& volume_totals() const { return volume_total_; }
   VolumeProjectionStats take_frame_volume_stats() { return std::exchange(volume_frame_, VolumeProjectionStats{}); }
+  /// Newmark's damping solves: the whole run's, and those since the last
+  /// take_frame_damping_stats.
+  [[nodiscard]] const DampingSolveStats& damping_totals() const { return damping_total_; }
+  DampingSolveStats take_frame_damping_stats() { return std::exchange(damping_frame_, DampingSolveStats{}); }
   [[nodiscard]] const std::vector<SimulationBody>& bodies() const { return bodies_; }
   [[nodiscard]] SimulationTotals totals() const;
   /// Every body's surface at the current positions, in one mesh (body order).
@@ -150,6 +154,7 @@ class Simulation {
   std::int64_t remeshes_ = 0;
   SelfCollisionStats self_collisions_;
   VolumeProjectionStats volume_total_, volume_frame_;
+  DampingSolveStats damping_total_, damping_frame_;
   StageTimes times_;
 };
 

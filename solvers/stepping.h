@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 
 namespace goo {
 
@@ -22,6 +23,23 @@ struct StepTimes {
     forces += o.forces, damping += o.damping, hessian += o.hessian, linear_solve += o.linear_solve;
     collisions += o.collisions, self_collisions += o.self_collisions, volume += o.volume, surface += o.surface;
     other += o.other;
+    return *this;
+  }
+};
+
+/// What Newmark's damping solves, (M + Δt/2 C) v = rhs by conjugate
+/// gradients, did.
+struct DampingSolveStats {
+  std::int64_t solves = 0;
+  std::int64_t iterations = 0;  ///< all solves together
+  int max_iterations = 0;       ///< the most any one solve took
+  double max_residual = 0.0;    ///< the largest final ‖r‖ / ‖rhs‖
+  std::int64_t unconverged = 0;  ///< solves stopped by cg_max_iterations
+
+  DampingSolveStats& operator+=(const DampingSolveStats& o) {
+    solves += o.solves, iterations += o.iterations, unconverged += o.unconverged;
+    max_iterations = std::max(max_iterations, o.max_iterations);
+    max_residual = std::max(max_residual, o.max_residual);
     return *this;
   }
 };

@@ -164,6 +164,30 @@ TEST_F(GooRestart, ResumingContinuesBitwiseIdentically) {
   EXPECT_THAT(info.out, HasSubstr("cube:"));
 }
 
+TEST_F(GooRestart, TheSummaryRecordsTheDampingSolves) {
+  // kDrop's splashing fluid is viscous: two damping solves a step, each
+  // converged to cg_tolerance (1e-6 of its impulse), the frames' records
+  // adding up to the run's.
+  const auto summary = nlohmann::json::parse(slurp(*dir_ / "a/summary.json"));
+  const auto& total = summary["damping_solve"];
+  EXPECT_EQ(total["solves"].get<long>(), 2 * summary["steps"].get<long>());
+  EXPECT_EQ(total["unconverged"].get<long>(), 0);
+  EXPECT_LE(total["max_residual"].get<double>(), 1e-6);
+  EXPECT_GT(total["cg_iterations"].get<long>(), 0);
+  long solves = 0, iterations = 0;
+  int most = 0;
+  for (const auto& frame : summary["per_frame"]) {
+    const auto& d = frame["damping_solve"];
+    solves += d["solves"].get<long>();
+    iterations += d["cg_iterations"].get<long>();
+    most = std::max(most, d["max_cg_iterations"].get<int>());
+    EXPECT_EQ(d["solves"].get<long>(), 2 * frame["steps"].get<long>());
+  }
+  EXPECT_EQ(solves, total["solves"].get<long>());
+  EXPECT_EQ(iterations, total["cg_iterations"].get<long>());
+  EXPECT_EQ(most, total["max_cg_iterations"].get<int>());
+}
+
 /// A `goo run SCENE --out OUT` in a child process, for the signal tests.
 /// Its stderr and stdout go to `output_fd` (/dev/null when -1, with --quiet).
 class GooChild {
