@@ -90,12 +90,22 @@ VolumeProjectionStats& VolumeProjectionStats::operator+=(const VolumeProjectionS
 
 VolumeProjection::VolumeProjection(VolumeProjectionSettings settings) : settings_(settings) {}
 
+void VolumeProjection::weights(const Body& body) {
+  // φ_e, the share of element e the material fills (1 for a tet-mesh body):
+  // the constraints hold the material's volume, and an element's empty
+  // part is free to change (it is no material).
+  const Index ne = body.num_elements();
+  weight_ = body.solid_fractions.size() == ne ? body.solid_fractions : Eigen::VectorXd::Ones(ne);
+}
+
 void VolumeProjection::gradients(const Body& body, const Points& start) {
   const Index ne = body.num_elements();
+  weights(body);
   gradient_.resize(at(ne));
   for_each_index(ne, [&](Index e) {
     const auto x = [&](int k) { return Eigen::Vector3d(start.row(body.tets(e, k)).transpose()); };
     volume_gradient(x(0), x(1), x(2), x(3), gradient_[at(e)]);
+    gradient_[at(e)] *= weight_[e];
   });
 }
 
@@ -107,6 +117,12 @@ void VolumeProjection::volumes(const Body& body, const Points& positions) {
     const auto x = [&](int k) { return Eigen::Vector3d(positions.row(body.tets(e, k)).transpose()); };
     volume_[e] = volume_gradient(x(0), x(1), x(2), x(3), unused);
   });
+}
+
+void VolumeProjection::weighted_volumes(const Body& body, const Points& positions) {
+  volumes(body, positions);
+  weights(body);
+  volume_.array() *= weight_.array();
 }
 
 // (G M⁻¹ Gᵀ) λ without forming the matrix: per element Λ_e = ¼ Σ_k λ_{n_k};
@@ -176,11 +192,12 @@ void VolumeProjection::prepare(const Body& body, const Points& at_positions, con
     const double V = (Eigen::Vector3d(at_positions.row(body.tets(e, 1)).transpose()) - x0).dot(g.col(1));
     bool movable = false;
     for (int k = 0; k < 4; ++k) movable = movable || inverse_mass_[body.tets(e, k)] > 0.0;
-    movable = movable && V > kCrushed * body.rest_volumes[e] * body.Fp[at(e)].determinant();
+    movable = movable && V > kCrushed * weight_[e] * body.rest_volumes[e] * body.Fp[at(e)].determinant();
     movable_[at(e)] = movable ? 1 : 0;
     rest_[e] = movable ? body.rest_volumes[e] * body.Fp[at(e)].determinant() : 0.0;
   });
-  quarter_node_sums(body.incidence, rest_, node_rest_);
+  quarter_node_sums(body.incidence, rest_, node_rest_);  // the tolerance's scale: whole elements
+  rest_.array() *= weight_.array();
   // A_ii = Σ_j |G_ij|² / m_j with G_ij = ¼ Σ_{e∋i,j} ∂V_e/∂x_j, gathered per
   // node over its elements' corners: the Jacobi preconditioner. A node is
   // constrained where its row is not zero up to round-off (Σ_e |¼ ∂V_e/∂x_j|²
@@ -305,7 +322,7 @@ VolumeProjectionStats VolumeProjection::project(Body& body, const Points& start,
     // positions alone. Only the error the step's motion made becomes
     // velocity and carried pressure, so a drift never turns into speed
     // (Δx/Δt at a tiny Δt) or winds the pressure up.
-    volumes(body, start);
+    weighted_volumes(body, start);
     for (Index e = 0; e < ne; ++e) volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0;
     quarter_node_sums(body.incidence, volume_, error_);
     const double drift = max_relative(error_, node_rest_, &active_);
@@ -326,7 +343,7 @@ VolumeProjectionStats VolumeProjection::project(Body& body, const Points& start,
   double last_error = 0.0;
   bool chord = true, restarted = false;
   for (int newton = 0;; ++newton) {
-    volumes(body, body.positions);
+    weighted_volumes(body, body.positions);
     for (Index e = 0; e < ne; ++e) volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0;
     quarter_node_sums(body.incidence, volume_, error_);
     const double error = max_relative(error_, node_rest_, &active_);

@@ -29,7 +29,8 @@ namespace goo {
 
 struct VolumeProjectionSettings {
   /// A node is done when |V_i − V̄_i| ≤ tolerance × ¼ Σ_{e∋i} W_e det Fp_e
-  /// (its whole elements' share, filled or not).
+  /// (its whole elements' share, filled or not), V_i = ¼ Σ_{e∋i} φ_e V_e the
+  /// material's share (φ_e the fraction of e it fills).
   double tolerance = kVolumeTolerance;
   int max_newton_iterations = 10;
   int max_cg_iterations = 500;
@@ -118,6 +119,9 @@ class VolumeProjection {
   std::vector<Matrix34> gradient_;  ///< ∂V_e/∂x of each element's four nodes
   std::vector<Matrix34> weighted_;  ///< Λ_e ∂V_e/∂x
   Eigen::VectorXd volume_, rest_, element_sum_, inverse_mass_, node_rest_, diagonal_;
+  Eigen::VectorXd weight_;  ///< per element, the share of it the constraints count (φ_e: its material)
+  void weights(const Body& body);
+  void weighted_volumes(const Body& body, const Points& positions);
   Eigen::VectorXd error_, r_, z_, p_, Ap_, lambda_, best_;
   std::vector<std::uint8_t> active_, movable_;
   Points direction_, transposed_;
