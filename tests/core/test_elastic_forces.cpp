@@ -127,14 +127,20 @@ TEST(Forces, BitwiseIdenticalForOneTwoAndEightThreads) {
   EXPECT_TRUE(results[0] == results[2]);
 }
 
-TEST(Damping, ZeroForRigidMotionOfADeformedBodyTorqueFreeAndDissipative) {
-  Body body = make_cube(ElasticModel::fixed_corotated, 3);
-  body.material.viscosity = 10.0;
-  // A deformed (sheared, stretched) configuration, not the rest shape.
+/// The body's rest positions sheared and stretched by a fixed map: a
+/// deformed configuration, not the rest shape.
+Points sheared(const Body& body) {
   Eigen::Matrix3d A;
   A << 1.3, 0.2, 0.0, -0.1, 0.8, 0.15, 0.05, 0.0, 1.1;
   Points x = body.rest_positions;
   for (Index n = 0; n < body.num_nodes(); ++n) x.row(n) = (A * x.row(n).transpose()).transpose();
+  return x;
+}
+
+TEST(Damping, ZeroForRigidMotionOfADeformedBodyTorqueFreeAndDissipative) {
+  Body body = make_cube(ElasticModel::fixed_corotated, 3);
+  body.material.viscosity = 10.0;
+  const Points x = sheared(body);
   ElasticForces forces;
   Points f;
   forces.evaluate(body, x, 0.0, f);
@@ -178,13 +184,10 @@ TEST(Damping, DiagonalBlocksAreTheForceOfEachNodesOwnVelocity) {
   // deformed body at every node, to round-off of the force's scale.
   Body body = make_cube(ElasticModel::fixed_corotated, 3);
   body.material.viscosity = 7.0;
-  Eigen::Matrix3d A;
-  A << 1.3, 0.2, 0.0, -0.1, 0.8, 0.15, 0.05, 0.0, 1.1;
   Eigen::Matrix3d Fp;
   Fp << 1.1, 0.05, 0.0, 0.0, 0.95, 0.02, 0.0, 0.0, 1.0 / (1.1 * 0.95);
   for (auto& fp : body.Fp) fp = Fp;
-  Points x = body.rest_positions;
-  for (Index n = 0; n < body.num_nodes(); ++n) x.row(n) = (A * x.row(n).transpose()).transpose();
+  const Points x = sheared(body);
   ElasticForces forces;
   Points f;
   forces.evaluate(body, x, 0.0, f);
