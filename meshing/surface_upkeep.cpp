@@ -152,6 +152,19 @@ class TriangleGrid {
   std::unordered_map<std::uint64_t, std::vector<Index>> cells_;
 };
 
+/// True if triangle f of s meets a triangle of `blockers` (another body's
+/// surface, `grid` over it) whose box meets `box` (f's).
+bool meets_blocker(const TriangleMesh& s, Index f, const Eigen::AlignedBox3d& box, const TriangleMesh& blockers,
+                   const TriangleGrid& grid) {
+  const Eigen::Vector3d f0 = point(s, s.triangles(f, 0)), f1 = point(s, s.triangles(f, 1)), f2 = point(s, s.triangles(f, 2));
+  for (const Index g : grid.near(box))
+    if (TriangleGrid::box(blockers, g).intersects(box) &&
+        triangles_intersect(f0, f1, f2, point(blockers, blockers.triangles(g, 0)), point(blockers, blockers.triangles(g, 1)),
+                            point(blockers, blockers.triangles(g, 2))))
+      return true;
+  return false;
+}
+
 struct CollapsePass {
   Index collapses = 0;
   Index refused = 0;
@@ -289,17 +302,9 @@ CollapsePass collapse_pass(TriangleMesh& s, double limit, double cell, const Tri
         if (crosses) break;
       }
       if (crosses) break;
-      if (blockers) {
-        const Eigen::Vector3d f0 = point(s, s.triangles(f, 0)), f1 = point(s, s.triangles(f, 1)),
-                              f2 = point(s, s.triangles(f, 2));
-        for (const Index g : blocker_grid->near(fan_box))
-          if (TriangleGrid::box(*blockers, g).intersects(fan_box) &&
-              triangles_intersect(f0, f1, f2, point(*blockers, blockers->triangles(g, 0)),
-                                  point(*blockers, blockers->triangles(g, 1)), point(*blockers, blockers->triangles(g, 2)))) {
-            crosses = true;
-            break;
-          }
-        if (crosses) break;
+      if (blockers && meets_blocker(s, f, fan_box, *blockers, *blocker_grid)) {
+        crosses = true;
+        break;
       }
     }
     if (crosses) {
@@ -431,17 +436,7 @@ FlipPass flip_pass(TriangleMesh& s, double cell, const TriangleMesh* blockers, c
           }
         if (crosses) break;
       }
-      if (!crosses && blockers) {
-        const Eigen::Vector3d f0 = point(s, s.triangles(t, 0)), f1 = point(s, s.triangles(t, 1)),
-                              f2 = point(s, s.triangles(t, 2));
-        for (const Index g : blocker_grid->near(box))
-          if (TriangleGrid::box(*blockers, g).intersects(box) &&
-              triangles_intersect(f0, f1, f2, point(*blockers, blockers->triangles(g, 0)),
-                                  point(*blockers, blockers->triangles(g, 1)), point(*blockers, blockers->triangles(g, 2)))) {
-            crosses = true;
-            break;
-          }
-      }
+      if (!crosses && blockers) crosses = meets_blocker(s, t, box, *blockers, *blocker_grid);
       if (crosses) break;
     }
     if (crosses) {
