@@ -5,6 +5,7 @@
 
 #include <Eigen/SVD>
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <map>
 #include <tuple>
@@ -130,6 +131,49 @@ void rigidify(const Body& body, const Points& x0, Points& d, const std::vector<s
   for (const Index n : nodes) d.row(n) = (u + omega.cross(x0.row(n).transpose() - c)).transpose();
 }
 
+/// Whether element e's orientation det D(t) stays positive over the whole
+/// step, D(t) = D₀ + t E with D₀ its edge matrix at x0 and E that of the
+/// displacements d: det(D₀ + tE) = det D₀ + t tr(adj(D₀) E) + t² tr(D₀ adj(E))
+/// + t³ det E, a cubic whose least value on [0, 1] is at an end or at a root
+/// of its derivative. Required to exceed its rounding error (a few ulps of
+/// the largest term) by a thousandfold: a near-degenerate element does not count.
+bool stays_positive(const Body& body, const Points& x0, const Points& d, Index e) {
+  Eigen::Matrix3d D, E;
+  const Index n0 = body.tets(e, 0);
+  for (int k = 1; k < 4; ++k) {
+    const Index n = body.tets(e, k);
+    D.col(k - 1) = (x0.row(n) - x0.row(n0)).transpose();
+    E.col(k - 1) = (d.row(n) - d.row(n0)).transpose();
+  }
+  auto adjugate = [](const Eigen::Matrix3d& m) {
+    Eigen::Matrix3d a;
+    a.row(0) = m.col(1).cross(m.col(2)).transpose();
+    a.row(1) = m.col(2).cross(m.col(0)).transpose();
+    a.row(2) = m.col(0).cross(m.col(1)).transpose();
+    return a;
+  };
+  const double c0 = D.determinant(), c1 = (adjugate(D) * E).trace(), c2 = (D * adjugate(E)).trace(),
+               c3 = E.determinant();
+  const double scale = std::pow(D.norm() + E.norm(), 3);
+  const double floor = 1e3 * 64.0 * std::numeric_limits<double>::epsilon() * scale;
+  auto p = [&](double t) { return c0 + t * (c1 + t * (c2 + t * c3)); };
+  double least = std::min(p(0.0), p(1.0));
+  // p'(t) = c1 + 2 c2 t + 3 c3 t²
+  const double a = 3.0 * c3, b = 2.0 * c2, c = c1;
+  if (a != 0.0) {
+    const double disc = b * b - 4.0 * a * c;
+    if (disc >= 0.0) {
+      const double r = std::sqrt(disc);
+      for (const double t : {(-b - r) / (2.0 * a), (-b + r) / (2.0 * a)})
+        if (t > 0.0 && t < 1.0) least = std::min(least, p(t));
+    }
+  } else if (b != 0.0) {
+    const double t = -c / b;
+    if (t > 0.0 && t < 1.0) least = std::min(least, p(t));
+  }
+  return least > floor;
+}
+
 }  // namespace
 
 void SelfCollisions::set_groups(std::optional<CollisionGroups> groups) {
@@ -186,7 +230,7 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
   // after the surface's mean translation, which moves every pair alike.
   const Eigen::RowVector3d mean_step = ds.colwise().mean();
   drift_.resize(at(nv));
-  if (list_valid_ && list_positions_.rows() == nv) {
+  if (list_valid_ && list_positions_.rows() == nv && list_parents_ == body.embedding.parent) {
     const Eigen::RowVector3d shift = (xs0 - list_positions_).colwise().mean();
     bool holds = true;
     for (Index v = 0; v < nv && holds; ++v) {
@@ -218,6 +262,7 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
   for (Index t = 0; t < nt; ++t) tb[at(t)] = Box3(vb[at(tris(t, 0))]).extend(vb[at(tris(t, 1))]).extend(vb[at(tris(t, 2))]);
   for (std::size_t e = 0; e < edges_.size(); ++e) eb[e] = Box3(vb[at(edges_[e][0])]).extend(vb[at(edges_[e][1])]);
   list_positions_ = xs0;
+  list_parents_ = body.embedding.parent;
   list_valid_ = true;
   ++stats.list_builds;
 
@@ -228,16 +273,24 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
   // a point of a primitive moves at most √3 × its vertices' largest margin
   // from where it was (after the common translation).
   const std::vector<std::array<Index, 2>> triangle_pairs = overlapping_pairs(tb);
+  // Pairs with all four vertices in one element are left out (a step
+  // moves them by that element's affine map): add_local_pairs lists them
+  // for the steps in which the element does not stay positively oriented.
+  const auto& parent = body.embedding.parent;
   auto keep = [&](PairKind kind, const std::array<Index, 4>& v, double& distance) {
-    if (groups_ && within(v) && !groups_->self_pairs[at(group(v))]) return false;  // that body's self-collisions are off
-    distance = ccd::closest(kind, gather(xs0, v)).distance;
-    return distance <= kReported * thickness + reach(kind, v, margin_);
+    return !one_element(body, v) && keep_pair(kind, v, xs0, thickness, distance);
   };
   const std::size_t grain = 4096;
   std::vector<std::vector<Pair>> found((triangle_pairs.size() + grain - 1) / grain);
   tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t chunk) {
     auto& out = found[chunk];
     for (std::size_t i = chunk * grain; i < std::min(triangle_pairs.size(), (chunk + 1) * grain); ++i) {
+      {
+        const Index A = triangle_pairs[i][0], B = triangle_pairs[i][1], e = parent[at(tris(A, 0))];
+        bool one = true;
+        for (int k = 0; k < 3; ++k) one = one && parent[at(tris(A, k))] == e && parent[at(tris(B, k))] == e;
+        if (one) continue;
+      }
       for (std::size_t side = 0; side < 2; ++side) {
         const Index A = triangle_pairs[i][side], B = triangle_pairs[i][1 - side];
         const auto tri = tris.row(B);
@@ -272,7 +325,82 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
   for (const auto& f : found) candidates_.insert(candidates_.end(), f.begin(), f.end());
   clearance_.assign(candidates_.size(), -std::numeric_limits<double>::infinity());
   changed_at_.resize(candidates_.size());
+  list_size_ = candidates_.size();
+  local_.assign(at(body.num_elements()), 0);
   return true;
+}
+
+bool SelfCollisions::keep_pair(PairKind kind, const std::array<Index, 4>& v, const Points& xs0, double thickness,
+                               double& distance) const {
+  if (groups_ && within(v) && !groups_->self_pairs[at(group(v))]) return false;  // that body's self-collisions are off
+  distance = ccd::closest(kind, gather(xs0, v)).distance;
+  return distance <= kReported * thickness + reach(kind, v, margin_);
+}
+
+void SelfCollisions::drop_local_pairs() {
+  candidates_.resize(list_size_);
+  clearance_.resize(list_size_);
+  changed_at_.resize(list_size_);
+  std::fill(local_.begin(), local_.end(), 0);
+}
+
+void SelfCollisions::update_orientations(const Body& body, const Points& x0, const Points& d) {
+  affine_.resize(at(body.num_elements()));
+  tbb::parallel_for(tbb::blocked_range<Index>(0, body.num_elements(), kParallelGrain),
+                    [&](const tbb::blocked_range<Index>& r) {
+                      for (Index e = r.begin(); e != r.end(); ++e)
+                        affine_[at(e)] = stays_positive(body, x0, d, e) ? 1 : 0;
+                    });
+}
+
+void SelfCollisions::add_local_pairs(const Body& body, const Points& xs0, double thickness) {
+  const Index ne = body.num_elements();
+  const auto& parent = body.embedding.parent;
+  if (local_.size() != at(ne)) local_.assign(at(ne), 0);
+  std::vector<Index> slot(at(ne), -1);
+  Index slots = 0;
+  for (Index e = 0; e < ne; ++e)
+    if (!affine_[at(e)] && !local_[at(e)]) {
+      local_[at(e)] = 1;
+      slot[at(e)] = slots++;
+    }
+  if (slots == 0) return;
+  // The element's own vertices, triangles and edges (all corners in it).
+  std::vector<std::vector<Index>> vertices(at(slots)), triangles(at(slots)), edges(at(slots));
+  for (Index v = 0; v < body.embedding.num_vertices(); ++v)
+    if (slot[at(parent[at(v)])] >= 0) vertices[at(slot[at(parent[at(v)])])].push_back(v);
+  const Triangles& tris = body.surface_triangles;
+  for (Index t = 0; t < static_cast<Index>(tris.rows()); ++t) {
+    const Index e = parent[at(tris(t, 0))];
+    if (slot[at(e)] >= 0 && parent[at(tris(t, 1))] == e && parent[at(tris(t, 2))] == e)
+      triangles[at(slot[at(e)])].push_back(t);
+  }
+  for (std::size_t i = 0; i < edges_.size(); ++i) {
+    const Index e = parent[at(edges_[i][0])];
+    if (slot[at(e)] >= 0 && parent[at(edges_[i][1])] == e) edges[at(slot[at(e)])].push_back(static_cast<Index>(i));
+  }
+  for (Index k = 0; k < slots; ++k) {
+    for (const Index v : vertices[at(k)])
+      for (const Index t : triangles[at(k)]) {
+        if (tris(t, 0) == v || tris(t, 1) == v || tris(t, 2) == v) continue;
+        const std::array<Index, 4> pv{v, tris(t, 0), tris(t, 1), tris(t, 2)};
+        double distance = 0.0;
+        if (keep_pair(PairKind::vertex_triangle, pv, xs0, thickness, distance))
+          candidates_.push_back({static_cast<std::uint8_t>(PairKind::vertex_triangle), pv, distance});
+      }
+    const auto& own = edges[at(k)];
+    for (std::size_t i = 0; i < own.size(); ++i)
+      for (std::size_t j = i + 1; j < own.size(); ++j) {
+        const auto &a = edges_[at(own[i])], &b = edges_[at(own[j])];
+        if (a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]) continue;
+        const std::array<Index, 4> pv{a[0], a[1], b[0], b[1]};
+        double distance = 0.0;
+        if (keep_pair(PairKind::edge_edge, pv, xs0, thickness, distance))
+          candidates_.push_back({static_cast<std::uint8_t>(PairKind::edge_edge), pv, distance});
+      }
+  }
+  clearance_.resize(candidates_.size(), -std::numeric_limits<double>::infinity());
+  changed_at_.resize(candidates_.size());
 }
 
 std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, const Points& xs0, const Points& ds,
@@ -314,6 +442,11 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
                               inside = (*zone)[at(body.tets(body.embedding.parent[at(s)], k))] == root;
                           if (inside) continue;  // moved by one affine map that shrinks no distance
                         }
+                        // All four vertices in one element that stays positively
+                        // oriented all step: they move by one invertible affine map
+                        // of the step's start, which passes nothing through anything.
+                        if (one_element(body, p.vertices) && affine_[at(body.embedding.parent[at(p.vertices[0])])])
+                          continue;
                         const auto kind = static_cast<PairKind>(p.kind);
                         if (clearance_[i] > 0.0) {  // measured this step without impact: moved enough since?
                           std::array<double, 4> moved{};
@@ -430,7 +563,10 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   }
   const Points xs0 = body.embedding.surface_positions(body.tets, x0);
   Points ds = body.embedding.surface_positions(body.tets, d);  // W d: the surface's displacements
+  drop_local_pairs();  // the last step's
   find_candidates(body, xs0, ds, thickness, stats);
+  update_orientations(body, x0, d);
+  add_local_pairs(body, xs0, thickness);
   // A new step: every pair is measured at its first detection.
   std::fill(clearance_.begin(), clearance_.end(), -std::numeric_limits<double>::infinity());
   ds_last_.resize(0, 3);
@@ -456,6 +592,11 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   auto redetect = [&](const std::vector<Index>* zone, const std::vector<std::uint8_t>* only) {
     ds = body.embedding.surface_positions(body.tets, d);
     const bool rebuilt = find_candidates(body, xs0, ds, thickness, stats);
+    // Impulses and rigid zones move nodes: an element may no longer stay
+    // positive (its pairs are measured from now on; its vertices are among
+    // the flagged ones, as a node of it moved).
+    update_orientations(body, x0, d);
+    add_local_pairs(body, xs0, thickness);
     return detect(body, xs0, ds, thickness, zone, rebuilt ? nullptr : only, stats);
   };
   if (stats.repulsions > 0) impacts = redetect(nullptr, nullptr);

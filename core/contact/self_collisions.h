@@ -108,6 +108,25 @@ class SelfCollisions {
   /// Returns whether the list was built anew.
   bool find_candidates(const Body& body, const Points& xs0, const Points& ds, double thickness,
                        SelfCollisionStats& stats);
+  /// Whether the pair keeps its place on the list (its body's own pairs
+  /// resolved, and within reach of the thickness); `distance` is its gap now.
+  bool keep_pair(ccd::PairKind kind, const std::array<Index, 4>& v, const Points& xs0, double thickness,
+                 double& distance) const;
+  /// Whether all four vertices lie in one element.
+  [[nodiscard]] static bool one_element(const Body& body, const std::array<Index, 4>& v) {
+    const auto& parent = body.embedding.parent;
+    const Index e = parent[static_cast<std::size_t>(v[0])];
+    return parent[static_cast<std::size_t>(v[1])] == e && parent[static_cast<std::size_t>(v[2])] == e &&
+           parent[static_cast<std::size_t>(v[3])] == e;
+  }
+  /// Per element, whether it stays positively oriented while the nodes move
+  /// from x0 to x0 + d.
+  void update_orientations(const Body& body, const Points& x0, const Points& d);
+  /// Appends the pairs within each element that does not stay positively
+  /// oriented (and has none listed yet): the list leaves them out.
+  void add_local_pairs(const Body& body, const Points& xs0, double thickness);
+  /// Forgets the pairs add_local_pairs appended.
+  void drop_local_pairs();
   /// Impacts among the candidates: pairs that come within the thickness
   /// (or half their starting gap) while approaching. With `zone`, pairs whose
   /// nodes all lie in one rigid zone are skipped (their distances cannot
@@ -136,6 +155,14 @@ class SelfCollisions {
   [[nodiscard]] double friction(const Pair& pair, double own) const;
 
   std::optional<CollisionGroups> groups_;
+  // Per element, this step: positively oriented throughout, so that the
+  // pairs with all four vertices in it, moved by one invertible affine map,
+  // cannot cross (the list leaves them out; add_local_pairs appends those
+  // of the other elements after the list's first list_size_ pairs).
+  std::vector<std::uint8_t> affine_;
+  std::vector<std::uint8_t> local_;  // per element: its pairs appended this step
+  std::size_t list_size_ = 0;
+  std::vector<Index> list_parents_;  // each vertex's element when the list was built
   std::vector<std::uint8_t> waiting_;  // per group, this step: an element inverted (its own pairs wait)
   Triangles triangles_;                      // the surface the edges below belong to
   std::vector<std::array<Index, 2>> edges_;  // unique surface edges, sorted

@@ -160,24 +160,11 @@ TEST(SelfCollisions, RigidZonesAloneKeepTheSurfaceApart) {
   }
 }
 
-TEST(SelfCollisions, SheetsInOneElementDoNotFlingItsNodes) {
-  // One tet (apex node 3 at z = 0.1 m, a light node at the mass floor) holding
-  // two parallel triangles 5e-5 m apart, closer than the thickness. A pair's
-  // point moves by Σ c_i d_i with c_i the difference of the two sides'
-  // barycentric weights: here c = (−5e-4, 0, 0, 5e-4) for points above each
-  // other, so the impulse that separates the pair by its target alone would
-  // move nodes 0 and 3 by target / 1e-3 and more (node 3 is light): the
-  // element stretched a thousandfold for a gap of a micrometre. Each impulse
-  // moves a node at most twice what it changes at its pair, here at most a
-  // tenth of the missing thickness; the 15 pairs (6 vertex–triangle,
-  // 9 edge–edge) then move no node by more than 15 × 2 × 0.1 × the thickness.
-  const double thickness = 1e-4, gap = 5e-5;
+/// Two triangles (corners 0–2 and 3–5) embedded in one element: the corner
+/// tetrahedron of 0.1 m, with its apex node light (at the mass floor).
+Body sheets_in_one_element(const Points& corners) {
   Body body = make_body(test::corner_tetrahedron(0.1), gel());
   body.masses[3] *= 0.05;
-  const double z = 0.01;
-  Points corners(6, 3);
-  corners << 0.01, 0.01, z, 0.05, 0.01, z, 0.01, 0.05, z,  //
-      0.01, 0.01, z + gap, 0.01, 0.05, z + gap, 0.05, 0.01, z + gap;
   body.embedding.parent.assign(6, 0);
   body.embedding.bary.resize(6, 4);
   for (Index v = 0; v < 6; ++v) {
@@ -186,18 +173,78 @@ TEST(SelfCollisions, SheetsInOneElementDoNotFlingItsNodes) {
   }
   body.surface_triangles.resize(2, 3);
   body.surface_triangles << 0, 1, 2, 3, 4, 5;
+  return body;
+}
+
+TEST(SelfCollisions, SheetsInOneElementMoveWithItAndAreLeftAlone) {
+  // Two parallel triangles 5e-5 m apart, closer than the thickness, in one
+  // element squashed to half its height over the step. Both move by the
+  // element's one affine map x ↦ A(t) x + b(t), invertible at every time of
+  // the step (det D(t) > 0), which passes nothing through anything: the
+  // pairs are not measured and no node is pushed. (Impulses between points
+  // of one element would stretch it instead: both sides hang on its nodes.)
+  const double thickness = 1e-4, gap = 5e-5, z = 0.01;
+  Points corners(6, 3);
+  corners << 0.01, 0.01, z, 0.05, 0.01, z, 0.01, 0.05, z,  //
+      0.01, 0.01, z + gap, 0.01, 0.05, z + gap, 0.05, 0.01, z + gap;
+  const Body body = sheets_in_one_element(corners);
   const Points x0 = body.positions;
   Points d = Points::Zero(body.num_nodes(), 3);
+  d(3, 2) = -0.05;
+  const Points before = d;
   SelfCollisions stage;
   const SelfCollisionStats stats = stage.resolve(body, x0, d, {}, {thickness, 0.0, 8});
-  ASSERT_GT(stats.repulsions, 0);
-  EXPECT_LE(d.rowwise().norm().maxCoeff(), 15 * 2 * 0.1 * thickness);
-  // The sheets still draw apart, if only by the little a stretch of the
-  // element can give them: corners above each other (0–3, 1–5, 2–4).
-  const Points xs = body.embedding.surface_positions(body.tets, x0 + d);
-  for (const auto& [below, above] : {std::pair{0, 3}, std::pair{1, 5}, std::pair{2, 4}})
-    EXPECT_GT(xs(above, 2) - xs(below, 2), gap);
-  EXPECT_LT(momentum_change(body, Points::Zero(body.num_nodes(), 3), d).norm(), 1e-12 * momentum_scale(body, d));
+  EXPECT_EQ(stats.candidates, 0);
+  EXPECT_EQ(stats.repulsions + stats.impacts + stats.zone_rounds, 0);
+  EXPECT_TRUE(d == before);
+  for (const double t : {0.0, 0.5, 1.0}) EXPECT_EQ(crossings_at(body, x0, d, t), 0u);
+}
+
+TEST(SelfCollisions, SheetsInAnElementFlattenedMidStepAreKeptApart) {
+  // Two parallel triangles 1 mm apart in planes x = const, in one element
+  // whose nodes 1 and 2 move by −0.22 m along x and y: x and y scale by
+  // 1 − 2.2t, so det D(t) = 0.1 (0.1 − 0.22t)² vanishes at t = 1/2.2 though
+  // it is positive at both ends. There the element is flat, both triangles
+  // lie on the z axis and meet, and after it their order along x is
+  // reversed: the step passes one through the other. Such an element's own
+  // pairs are measured, and the step is made safe.
+  const double thickness = 1e-4, gap = 1e-3, x = 0.01;
+  Points corners(6, 3);
+  corners << x, 0.01, 0.01, x, 0.05, 0.01, x, 0.01, 0.05,  //
+      x + gap, 0.01, 0.01, x + gap, 0.01, 0.05, x + gap, 0.05, 0.01;
+  const Body body = sheets_in_one_element(corners);
+  const Points x0 = body.positions;
+  Points d = Points::Zero(body.num_nodes(), 3);
+  d(1, 0) = -0.22;
+  d(2, 1) = -0.22;
+  const double flat = 1.0 / 2.2;
+  // The least distance between the two triangles at time t (their 6
+  // vertex–triangle and 9 edge–edge pairs).
+  auto gap_at = [&](const Points& dd, double t) {
+    const Points xs = body.embedding.surface_positions(body.tets, x0 + t * dd);
+    auto p = [&](Index v) { return Eigen::Vector3d(xs.row(v).transpose()); };
+    double least = std::numeric_limits<double>::infinity();
+    for (int side = 0; side < 2; ++side)
+      for (int k = 0; k < 3; ++k) {
+        const Index v = 3 * side + k, o = 3 * (1 - side);
+        least = std::min(least, ccd::closest(ccd::PairKind::vertex_triangle, {p(v), p(o), p(o + 1), p(o + 2)}).distance);
+      }
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        least = std::min(least, ccd::closest(ccd::PairKind::edge_edge,
+                                             {p(a), p((a + 1) % 3), p(3 + b), p(3 + (b + 1) % 3)}).distance);
+    return least;
+  };
+  ASSERT_LT(gap_at(d, flat), 1e-12);  // the sheets meet as given
+  const Points given = d;
+  SelfCollisions stage;
+  const SelfCollisionStats stats = stage.resolve(body, x0, d, {}, {thickness, 0.0, 8});
+  EXPECT_GT(stats.candidates, 0);
+  EXPECT_GT(stats.impacts + stats.zone_rounds, 0);
+  double least = gap_at(d, flat);
+  for (int k = 0; k <= 1000; ++k) least = std::min(least, gap_at(d, k / 1000.0));
+  EXPECT_GE(least, thickness);  // no pair left reported: none came within the thickness (ccd.h)
+  EXPECT_LT(momentum_change(body, given, d).norm(), 1e-12 * momentum_scale(body, given));
 }
 
 TEST(SelfCollisions, ABodyWithAnInvertedElementIsLeftToTurnBack) {
