@@ -71,7 +71,8 @@ bool overlap(const Box3& a, const Box3& b) {
 
 /// Pairs of overlapping boxes among `boxes`; with `split` ≥ 0, only pairs of
 /// one box below `split` and one at or above it (reported as (i, j − split)).
-std::vector<std::array<Index, 2>> find_pairs(const std::vector<const Box3*>& boxes, Index split) {
+std::vector<std::array<Index, 2>> find_pairs(const std::vector<const Box3*>& boxes, Index split,
+                                             const std::vector<Index>* groups) {
   std::vector<Index> live;
   std::vector<const Box3*> live_boxes;
   for (std::size_t i = 0; i < boxes.size(); ++i)
@@ -133,6 +134,10 @@ std::vector<std::array<Index, 2>> find_pairs(const std::vector<const Box3*>& box
         const std::size_t i = entries[x] & 0xffffffffU;
         for (std::size_t y = split >= 0 ? second : x + 1; y < end; ++y) {
           const std::size_t j = entries[y] & 0xffffffffU;
+          if (groups) {
+            const Index group = (*groups)[at(live[i])];
+            if (group >= 0 && group == (*groups)[at(live[j])]) continue;
+          }
           if (!overlap(*live_boxes[i], *live_boxes[j])) continue;
           const Range &a = range[i], &b = range[j];
           if (cell_id(std::max(a.lo[0], b.lo[0]), std::max(a.lo[1], b.lo[1]), std::max(a.lo[2], b.lo[2])) != cell)
@@ -153,11 +158,11 @@ std::vector<std::array<Index, 2>> find_pairs(const std::vector<const Box3*>& box
 
 }  // namespace
 
-std::vector<std::array<Index, 2>> overlapping_pairs(const std::vector<Box3>& boxes) {
+std::vector<std::array<Index, 2>> overlapping_pairs(const std::vector<Box3>& boxes, const std::vector<Index>* groups) {
   std::vector<const Box3*> all;
   all.reserve(boxes.size());
   for (const Box3& b : boxes) all.push_back(&b);
-  return find_pairs(all, -1);
+  return find_pairs(all, -1, groups);
 }
 
 std::vector<std::array<Index, 2>> overlapping_pairs(const std::vector<Box3>& a, const std::vector<Box3>& b) {
@@ -165,7 +170,7 @@ std::vector<std::array<Index, 2>> overlapping_pairs(const std::vector<Box3>& a, 
   all.reserve(a.size() + b.size());
   for (const Box3& x : a) all.push_back(&x);
   for (const Box3& x : b) all.push_back(&x);
-  return find_pairs(all, static_cast<Index>(a.size()));
+  return find_pairs(all, static_cast<Index>(a.size()), nullptr);
 }
 
 }  // namespace goo

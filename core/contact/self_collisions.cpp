@@ -272,11 +272,18 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
   // is kept only if it can come within twice the thickness while the list holds:
   // a point of a primitive moves at most √3 × its vertices' largest margin
   // from where it was (after the common translation).
-  const std::vector<std::array<Index, 2>> triangle_pairs = overlapping_pairs(tb);
+  // Triangles with all three corners in one element share that element as
+  // their group: two of one group hold only pairs within it (left out below).
+  std::vector<Index> element_of(at(nt));
+  for (Index t = 0; t < nt; ++t) {
+    const Index e = body.embedding.parent[at(tris(t, 0))];
+    element_of[at(t)] =
+        body.embedding.parent[at(tris(t, 1))] == e && body.embedding.parent[at(tris(t, 2))] == e ? e : -1;
+  }
+  const std::vector<std::array<Index, 2>> triangle_pairs = overlapping_pairs(tb, &element_of);
   // Pairs with all four vertices in one element are left out (a step
   // moves them by that element's affine map): add_local_pairs lists them
   // for the steps in which the element does not stay positively oriented.
-  const auto& parent = body.embedding.parent;
   auto keep = [&](PairKind kind, const std::array<Index, 4>& v, double& distance) {
     return !one_element(body, v) && keep_pair(kind, v, xs0, thickness, distance);
   };
@@ -285,12 +292,6 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
   tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t chunk) {
     auto& out = found[chunk];
     for (std::size_t i = chunk * grain; i < std::min(triangle_pairs.size(), (chunk + 1) * grain); ++i) {
-      {
-        const Index A = triangle_pairs[i][0], B = triangle_pairs[i][1], e = parent[at(tris(A, 0))];
-        bool one = true;
-        for (int k = 0; k < 3; ++k) one = one && parent[at(tris(A, k))] == e && parent[at(tris(B, k))] == e;
-        if (one) continue;
-      }
       for (std::size_t side = 0; side < 2; ++side) {
         const Index A = triangle_pairs[i][side], B = triangle_pairs[i][1 - side];
         const auto tri = tris.row(B);

@@ -1,8 +1,13 @@
 // Distances and continuous collision detection of surface primitives
-// against exact answers on constructed cases.
+// against exact answers on constructed cases, and the broad phase
+// against every pair.
 #include <gtest/gtest.h>
 
+#include "core/contact/box_pairs.h"
 #include "core/contact/ccd.h"
+
+#include <algorithm>
+#include <random>
 
 namespace goo::ccd {
 namespace {
@@ -111,6 +116,33 @@ TEST(TimeOfImpact, StartingWithinTheDistanceReportsZero) {
   const Points4 x{V(0.2, 0.2, 1e-4), V(0, 0, 0), V(1, 0, 0), V(0, 1, 0)};
   const Points4 d{V::Zero(), V::Zero(), V::Zero(), V::Zero()};
   EXPECT_EQ(time_of_impact(PairKind::vertex_triangle, x, d, 1e-3), 0.0);
+}
+
+TEST(BoxPairs, EveryOverlappingPairOnceAndNoneOfOneGroup) {
+  // 600 boxes of sizes over two decades (the grid's cell is their mean)
+  // against all 179,700 pairs; then with every box in one of 40 groups
+  // (a fifth in none), pairs within a group left out.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> place(0.0, 1.0), size(0.002, 0.2);
+  std::vector<Box3> boxes;
+  for (int i = 0; i < 600; ++i) {
+    const Eigen::Vector3d lo(place(rng), place(rng), place(rng));
+    boxes.emplace_back(lo, lo + Eigen::Vector3d(size(rng), size(rng), size(rng)));
+  }
+  std::vector<Index> groups(boxes.size());
+  for (std::size_t i = 0; i < boxes.size(); ++i) groups[i] = i % 5 == 0 ? -1 : static_cast<Index>(i % 40);
+  for (const bool grouped : {false, true}) {
+    std::vector<std::array<Index, 2>> expected;
+    for (Index i = 0; i < 600; ++i)
+      for (Index j = i + 1; j < 600; ++j) {
+        if (grouped && groups[static_cast<std::size_t>(i)] >= 0 && groups[static_cast<std::size_t>(i)] == groups[static_cast<std::size_t>(j)]) continue;
+        if (boxes[static_cast<std::size_t>(i)].intersects(boxes[static_cast<std::size_t>(j)])) expected.push_back({i, j});
+      }
+    std::vector<std::array<Index, 2>> found = overlapping_pairs(boxes, grouped ? &groups : nullptr);
+    std::sort(found.begin(), found.end());
+    EXPECT_EQ(found, expected) << (grouped ? "with groups" : "without groups");
+    EXPECT_GT(expected.size(), 1000u);
+  }
 }
 
 }  // namespace
