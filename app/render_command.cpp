@@ -99,7 +99,7 @@ Scene find_scene(const fs::path& run, const std::optional<std::string>& given) {
   if (!j.is_object() || !j.contains("scene") || !j["scene"].is_string())
     throw Error(fmt::format("{}: names no scene; give it with --scene", summary.string()));
   const std::string source = j["scene"].get<std::string>();
-  if (source == "<built-in demo>") return io::parse_scene(io::default_scene_text(), source, fs::current_path());
+  if (source == "<built-in demo>") return io::demo_scene();
   std::error_code error;
   if (!fs::is_regular_file(source, error))
     throw Error(fmt::format("{}: the run's scene '{}' is not there any more; give it with --scene", summary.string(),
@@ -302,7 +302,10 @@ fs::path write_sheet(const RunPictures& pictures, const std::vector<int>& frames
   constexpr int kGap = 4, kTitle = 28;
   render::Image sheet(columns * width + (columns + 1) * kGap, rows * height + (rows + 1) * kGap + kTitle, 250);
   const Scene& scene = pictures.scene();
-  render::draw_text(sheet, fmt::format("{}  ({} frames at {} fps)", fs::path(scene.source).filename().string(), n,
+  render::draw_text(sheet, fmt::format("{}  ({} frames at {} fps)",
+                                      scene.source == "<built-in demo>" ? std::string("the built-in demo")
+                                                                        : fs::path(scene.source).filename().string(),
+                                      n,
                                        scene.output.fps),
                     kGap + 4, 8, 2, kInk);
   Progress progress(quiet, n, "contact sheet");

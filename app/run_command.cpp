@@ -365,7 +365,7 @@ int run_scene(const RunOptions& options) {
   } else if (options.scene) {
     scene = io::read_scene(*options.scene);
   } else {
-    scene = io::parse_scene(io::default_scene_text(), "<built-in demo>", fs::current_path());
+    scene = io::demo_scene();
   }
   const int last_frame = options.frames.value_or(scene.output.frames);
   if (last_frame < 0) throw Error(fmt::format("--frames must be non-negative, got {}", last_frame));
@@ -659,7 +659,8 @@ int run_scene(const RunOptions& options) {
     log().info("{} frames, {} steps, {} re-meshes in {:.1f} s; volume {:.6g} → {:.6g} m³; summary in {}", frame,
                sim.steps(), sim.remeshes(), seconds_since(wall_start), initial.volume, now.volume,
                (folder / "summary.json").string());
-  if (options.preview) {
+  // The built-in demo always ends with its contact sheet.
+  if (options.preview || (!options.scene && !options.resume)) {
     // The run's own result stands whatever happens to its picture.
     try {
       const fs::path sheet = render_contact_sheet(folder, scene, 12, options.quiet);

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <numbers>
@@ -855,23 +856,48 @@ Scene read_scene(const std::filesystem::path& path) {
 std::string_view default_scene_text() {
   return R"({
   "version": 1,
-  "description": "The built-in demo: a cube of gooey jelly dropped on the floor (W&T figure 3).",
+  "description": "The built-in demo: the Stanford bunny, 75,408 triangles on about 600 elements of gooey jelly, dropped onto a ball (W&T figures 1 and 3).",
   "gravity": [0, 0, -9.81],
   "integrator": {"type": "newmark"},
   "ground": {"height": 0.0, "friction": 0.5},
+  "obstacles": [
+    {"name": "ball", "shape": {"type": "sphere", "radius": 0.06}, "friction": 0.3,
+     "transform": {"translate": [0.03, 0, 0.06]}}
+  ],
   "objects": [
     {
-      "name": "jelly",
-      "primitive": {"type": "box", "size": [0.2, 0.2, 0.2], "subdivisions": 12},
-      "transform": {"translate": [0, 0, 0.3], "rotate_degrees": [20, 30, 0]},
+      "name": "bunny",
+      "mesh": "bunny00.off",
+      "transform": {"scale": 0.2, "rotate_degrees": [90, 0, 0], "translate": [0, 0, 0.25]},
       "material": {"preset": "gooey_jelly", "min_mass_fraction": 0.05},
       "lattice_spacing": 0.04
     }
   ],
-  "output": {"fps": 24, "frames": 72, "folder": "goo-out"},
-  "checkpoint": {"every_frames": 24}
+  "output": {"fps": 24, "frames": 36, "folder": "goo-out"},
+  "checkpoint": {"every_frames": 12}
 }
 )";
+}
+
+std::filesystem::path demo_assets_folder() {
+  std::vector<std::filesystem::path> places;
+  if (const char* env = std::getenv("GOO_ASSETS_DIR"); env && *env) places.emplace_back(env);
+  places.emplace_back(GOO_ASSETS_DIR);  // the source tree goo was built from
+  places.emplace_back(std::filesystem::current_path() / "assets");
+  std::string looked;
+  for (const auto& place : places) {
+    std::error_code error;
+    if (std::filesystem::is_regular_file(place / "bunny00.off", error)) return place;
+    looked += fmt::format("{}{}", looked.empty() ? "" : ", ", place.string());
+  }
+  throw Error(fmt::format(
+      "the built-in demo needs bunny00.off (the Stanford bunny of Debian's libcgal-demo) and found it in none of {}: "
+      "run scripts/fetch-assets, or set GOO_ASSETS_DIR to a folder holding it, or give a scene",
+      looked));
+}
+
+Scene demo_scene() {
+  return parse_scene(default_scene_text(), "<built-in demo>", demo_assets_folder());
 }
 
 }  // namespace goo::io

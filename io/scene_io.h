@@ -33,8 +33,19 @@ struct SceneInputs {
 Scene parse_scene(std::string_view text, const std::string& source, const std::filesystem::path& base_folder,
                   const SceneInputs& inputs = {});
 
-/// The built-in demo: a cube of gooey jelly dropped on the floor (W&T
-/// figure 3), three seconds at 24 frames per second.
+/// The built-in demo's scene text: the Stanford bunny of gooey jelly, a
+/// 75k-triangle surface on a coarse lattice, dropped onto a ball; a second
+/// and a half at 24 frames per second. Its mesh, "bunny00.off", resolves
+/// from demo_assets_folder().
 std::string_view default_scene_text();
+
+/// The folder the built-in demo reads bunny00.off from: $GOO_ASSETS_DIR,
+/// else the assets/ folder of the source tree goo was built from
+/// (scripts/fetch-assets fills it), else ./assets. Throws an Error naming
+/// every place it looked when none holds it.
+std::filesystem::path demo_assets_folder();
+
+/// The built-in demo's scene, read.
+Scene demo_scene();
 
 }  // namespace goo::io

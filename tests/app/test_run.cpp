@@ -590,7 +590,11 @@ TEST(GooRun, WithoutASceneRunsTheBuiltInDemo) {
   EXPECT_TRUE(fs::exists(dir / "demo/frames/frame_00001.ply"));
   const auto summary = nlohmann::json::parse(slurp(dir / "demo/summary.json"));
   EXPECT_EQ(summary["scene"], "<built-in demo>");
+  EXPECT_EQ(summary["initial_surface_triangles"], 75408);  // the bunny
   EXPECT_THAT(run.err, HasSubstr("frame 1/1"));  // progress
+  // It ends with its contact sheet, and says where.
+  EXPECT_TRUE(fs::exists(dir / "demo/render/sheet.png"));
+  EXPECT_THAT(run.out, HasSubstr("contact sheet: " + (dir / "demo/render/sheet.png").string()));
 }
 
 }  // namespace

@@ -5,8 +5,14 @@
 
 #include <fmt/format.h>
 
+#include <cstdlib>
+#include <filesystem>
+#include <optional>
+#include <string>
+
 #include "core/surface_geometry.h"
 #include "io/scene_io.h"
+#include "io/surface_mesh_io.h"
 #include "tests/common/test_common.h"
 #include "tests/io/bad_mesh_fixtures.h"
 
@@ -38,16 +44,46 @@ TEST(Scene, EveryShippedSceneParses) {
   EXPECT_GE(count, 8);
 }
 
-TEST(Scene, TheBuiltInDemoIsAGooeyJellyCubeOnTheFloor) {
-  const Scene s = io::parse_scene(io::default_scene_text(), "<built-in demo>", ".");
+TEST(Scene, TheBuiltInDemoIsTheDetailedBunnyOfGooeyJellyDroppedOntoABall) {
+  // What the method is for: a fine surface (the 75,408-triangle bunny) on a
+  // lattice coarse beside it, flowing; a ball under it, the floor below.
+  const Scene s = io::demo_scene();
   ASSERT_EQ(s.objects.size(), 1u);
+  const SceneObject& bunny = s.objects[0];
   const Material jelly = material_preset("gooey_jelly");
-  EXPECT_EQ(s.objects[0].material.youngs_modulus, jelly.youngs_modulus);
-  EXPECT_EQ(s.objects[0].material.yield_stress, jelly.yield_stress);
-  EXPECT_TRUE(s.ground.has_value());
+  EXPECT_EQ(bunny.material.youngs_modulus, jelly.youngs_modulus);
+  EXPECT_EQ(bunny.material.yield_stress, jelly.yield_stress);
+  ASSERT_TRUE(bunny.surface.has_value());
+  EXPECT_EQ(bunny.surface->num_triangles(), 75408);
+  // The bunny as read from the asset, scaled by 0.2: the volume scales by 0.2³.
+  const double volume = surface_integrals(io::read_surface_mesh(test::asset("bunny00.off"))).volume;
+  EXPECT_NEAR(surface_integrals(*bunny.surface).volume, 0.008 * volume, 1e-12 * volume);
+  const SurfaceIntegrals integrals = surface_integrals(*bunny.surface);
+  const double edge = std::sqrt(4.0 * integrals.area / std::sqrt(3.0) / double(bunny.surface->num_triangles()));
+  EXPECT_GT(bunny.lattice_spacing, 10.0 * edge);  // many triangles to an element
+  ASSERT_EQ(s.obstacles.size(), 1u);
+  const double lowest = bunny.surface->vertices.col(2).minCoeff();
+  const Eigen::AlignedBox3d ball = s.obstacles[0].bounds(0.0);
+  EXPECT_LT(ball.max().z(), lowest);  // the bunny starts above the ball...
+  EXPECT_GT(ball.max().z(), 0.0);     // ...which stands on the floor
+  EXPECT_GE(ball.min().z(), 0.0);
+  ASSERT_TRUE(s.ground.has_value());
   EXPECT_EQ(s.output.fps, 24.0);
-  EXPECT_GE(s.output.frames / s.output.fps, 2.0);  // a few seconds
-  EXPECT_NEAR(surface_integrals(*s.objects[0].surface).volume, 0.008, 1e-15);
+  EXPECT_GE(s.output.frames / s.output.fps, 1.0);  // the fall, the impact and the slump
+}
+
+TEST(Scene, TheBuiltInDemoReadsItsBunnyFromGooAssetsDirFirst) {
+  test::TempDir dir;
+  std::filesystem::copy_file(test::asset("bunny00.off"), dir / "bunny00.off");
+  const char* before = std::getenv("GOO_ASSETS_DIR");
+  const std::optional<std::string> saved = before ? std::optional<std::string>(before) : std::nullopt;
+  ASSERT_EQ(setenv("GOO_ASSETS_DIR", dir.path().c_str(), 1), 0);
+  const std::filesystem::path found = io::demo_assets_folder();
+  unsetenv("GOO_ASSETS_DIR");
+  const std::filesystem::path otherwise = io::demo_assets_folder();
+  if (saved) setenv("GOO_ASSETS_DIR", saved->c_str(), 1);
+  EXPECT_EQ(found, dir.path());
+  EXPECT_EQ(otherwise, std::filesystem::path(GOO_ASSETS_DIR));  // the source tree's, filled by scripts/fetch-assets
 }
 
 TEST(Scene, PresetsSpanRigidToFluidAndFieldsOverrideThem) {
