@@ -112,6 +112,9 @@ class SelfCollisions {
   /// resolved, and within reach of the thickness); `distance` is its gap now.
   bool keep_pair(ccd::PairKind kind, const std::array<Index, 4>& v, const Points& xs0, double thickness,
                  double& distance) const;
+  /// The largest motion of a pair's vertex relative to its first one, from
+  /// the list's build to the step's start plus over the step (m).
+  [[nodiscard]] double relative_motion(const Points& xs0, const Points& ds, const std::array<Index, 4>& v) const;
   /// Whether all four vertices lie in one element.
   [[nodiscard]] static bool one_element(const Body& body, const std::array<Index, 4>& v) {
     const auto& parent = body.embedding.parent;
