@@ -584,7 +584,12 @@ void read_integrator(Node n, Scene& s) {
     });
     optional(n, "max_strain_per_step", ns.max_strain_per_step, [](const Node& v) { return v.positive(); });
     optional(n, "max_time_step", ns.max_time_step, [](const Node& v) { return v.positive(); });
-    optional(n, "cg_tolerance", ns.cg_tolerance, [](const Node& v) { return v.positive(); });
+    // A fraction of the half step's impulse: at 1 or above a solve stops before it starts.
+    optional(n, "cg_tolerance", ns.cg_tolerance, [](const Node& v) {
+      const double x = v.number();
+      if (!(x > 0.0 && x < 1.0)) v.fail(fmt::format("must be in (0, 1), got {}", x));
+      return x;
+    });
     optional(n, "cg_max_iterations", ns.cg_max_iterations, [](const Node& v) { return v.integer(1, 1000000); });
     optional(n, "volume_tolerance", ns.volume_tolerance, [](const Node& v) {
       const double x = v.number();

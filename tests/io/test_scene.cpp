@@ -150,6 +150,13 @@ TEST(Scene, PresetsAreIncompressibleAndTheKeySwitchesItPerObject) {
   EXPECT_TRUE(test::throws_error_containing(
       [&] { parse(with_integrator(R"({"type": "newmark", "volume_tolerance": 0})")); },
       "/integrator/volume_tolerance must be in (0, 0.1), got 0"));
+  // The damping solves' tolerance is a fraction of the half step's impulse.
+  EXPECT_EQ(parse(with_integrator(R"({"type": "newmark", "cg_tolerance": 0.5})")).newmark.cg_tolerance, 0.5);
+  for (const auto& [bad, shown] : {std::pair{"1", "1"}, {"2.5", "2.5"}, {"0", "0"}, {"-1e-6", "-1e-06"}})
+    EXPECT_TRUE(test::throws_error_containing(
+        [&] { parse(with_integrator(fmt::format(R"({{"type": "newmark", "cg_tolerance": {}}})", bad))); },
+        fmt::format("/integrator/cg_tolerance must be in (0, 1), got {}", shown)))
+        << bad;
 }
 
 TEST(Scene, SelfCollisionsAreOnUnlessSwitchedOff) {
