@@ -219,8 +219,8 @@ bool SelfCollisions::update_edges(const Triangles& triangles) {
   return true;
 }
 
-bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const Points& ds, double thickness,
-                                     SelfCollisionStats& stats) {
+bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const Points& d, const Points& xs0,
+                                     const Points& ds, double thickness, SelfCollisionStats& stats) {
   const Index nv = body.embedding.num_vertices();
   const Index nt = static_cast<Index>(body.surface_triangles.rows());
   const Triangles& tris = body.surface_triangles;
@@ -230,6 +230,7 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
   // after the surface's mean translation, which moves every pair alike.
   const Eigen::RowVector3d mean_step = ds.colwise().mean();
   drift_.resize(at(nv));
+  if (stars_.update_mesh(body)) list_valid_ = false;
   if (list_valid_ && list_positions_.rows() == nv && list_parents_ == body.embedding.parent) {
     const Eigen::RowVector3d shift = (xs0 - list_positions_).colwise().mean();
     bool holds = true;
@@ -250,7 +251,10 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
   for (const auto& e : edges_) edge_length += (xs0.row(e[0]) - xs0.row(e[1])).norm();
   edge_length /= double(std::max<std::size_t>(1, edges_.size()));
   margin_.resize(at(nv));
-  std::vector<Box3> vb(at(nv)), tb(at(nt)), eb(edges_.size());
+  std::vector<Box3>&vb = vertex_boxes_, &tb = triangle_boxes_, &eb = edge_boxes_;
+  vb.resize(at(nv));
+  tb.resize(at(nt));
+  eb.resize(edges_.size());
   for (Index v = 0; v < nv; ++v) {
     drift_[at(v)] = (ds.row(v) - mean_step).cwiseAbs().maxCoeff();
     margin_[at(v)] = std::max(0.1 * edge_length, 4.0 * drift_[at(v)]);
@@ -280,20 +284,44 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
     element_of[at(t)] =
         body.embedding.parent[at(tris(t, 1))] == e && body.embedding.parent[at(tris(t, 2))] == e ? e : -1;
   }
-  const std::vector<std::array<Index, 2>> triangle_pairs = overlapping_pairs(tb, &element_of);
-  // Pairs with all four vertices in one element are left out (a step
-  // moves them by that element's affine map): add_local_pairs lists them
-  // for the steps in which the element does not stay positively oriented.
-  auto keep = [&](PairKind kind, const std::array<Index, 4>& v, double& distance) {
-    return !one_element(body, v) && keep_pair(kind, v, xs0, thickness, distance);
-  };
+  // Triangles of one calm star's group hold pairs that cannot touch while
+  // it stays calm (CalmStars): left out too, listed when it stops.
+  stars_.update_surface(body, element_of);
+  std::vector<Index> group = stars_.assign_groups(body, x0, d);
+  const Index nn = body.num_nodes();
+  for (Index t = 0; t < nt; ++t)
+    if (group[at(t)] < 0 && element_of[at(t)] >= 0) group[at(t)] = nn + element_of[at(t)];
+  const std::vector<std::array<Index, 2>> triangle_pairs = overlapping_pairs(tb, &group);
   const std::size_t grain = 4096;
   std::vector<std::vector<Pair>> found((triangle_pairs.size() + grain - 1) / grain);
   tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t chunk) {
     auto& out = found[chunk];
-    for (std::size_t i = chunk * grain; i < std::min(triangle_pairs.size(), (chunk + 1) * grain); ++i) {
+    for (std::size_t i = chunk * grain; i < std::min(triangle_pairs.size(), (chunk + 1) * grain); ++i)
+      expand(body, triangle_pairs[i][0], triangle_pairs[i][1], xs0, thickness, out);
+  });
+  candidates_.clear();
+  for (const auto& f : found) candidates_.insert(candidates_.end(), f.begin(), f.end());
+  clearance_.assign(candidates_.size(), -std::numeric_limits<double>::infinity());
+  changed_at_.resize(candidates_.size());
+  list_size_ = candidates_.size();
+  local_.assign(at(body.num_elements()), 0);
+  return true;
+}
+
+void SelfCollisions::expand(const Body& body, Index A0, Index B0, const Points& xs, double thickness,
+                            std::vector<Pair>& out) const {
+  const Triangles& tris = body.surface_triangles;
+  const std::vector<Box3>&vb = vertex_boxes_, &tb = triangle_boxes_, &eb = edge_boxes_;
+  // Pairs with all four vertices in one element are left out (a step
+  // moves them by that element's affine map): add_local_pairs lists them
+  // for the steps in which the element does not stay positively oriented.
+  auto keep = [&](PairKind kind, const std::array<Index, 4>& v, double& distance) {
+    return !one_element(body, v) && keep_pair(kind, v, xs, thickness, distance);
+  };
+  {
+    {
       for (std::size_t side = 0; side < 2; ++side) {
-        const Index A = triangle_pairs[i][side], B = triangle_pairs[i][1 - side];
+        const Index A = side == 0 ? A0 : B0, B = side == 0 ? B0 : A0;
         const auto tri = tris.row(B);
         for (int k = 0; k < 3; ++k) {  // A's own vertices against B
           const Index v = tris(A, k);
@@ -305,7 +333,7 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
             out.push_back({static_cast<std::uint8_t>(PairKind::vertex_triangle), vertices, distance});
         }
       }
-      const Index A = triangle_pairs[i][0], B = triangle_pairs[i][1];
+      const Index A = A0, B = B0;
       for (const Index e : triangle_edges_[at(A)]) {  // A's own edges against B's own
         if (edge_owner_[at(e)] != A) continue;
         const auto& ea = edges_[at(e)];
@@ -321,13 +349,28 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& xs0, const 
         }
       }
     }
-  });
-  candidates_.clear();
-  for (const auto& f : found) candidates_.insert(candidates_.end(), f.begin(), f.end());
-  clearance_.assign(candidates_.size(), -std::numeric_limits<double>::infinity());
-  changed_at_.resize(candidates_.size());
+  }
+}
+
+bool SelfCollisions::list_unsafe_groups(const Body& body, const Points& x0, const Points& d,
+                                        const std::vector<std::uint8_t>* moved, double thickness) {
+  const std::vector<Index> unsafe = stars_.newly_unsafe(body, x0, d, moved);
+  if (unsafe.empty()) return false;
+  std::vector<Pair> added;
+  for (const Index n : unsafe) {
+    const std::vector<Index> members = stars_.members(n);
+    std::vector<Box3> boxes;
+    boxes.reserve(members.size());
+    for (const Index t : members) boxes.push_back(triangle_boxes_[at(t)]);
+    // Measured where the list was built, as the list's own pairs are.
+    for (const auto& p : overlapping_pairs(boxes, nullptr))
+      expand(body, members[at(p[0])], members[at(p[1])], list_positions_, thickness, added);
+  }
+  drop_local_pairs();
+  candidates_.insert(candidates_.end(), added.begin(), added.end());
   list_size_ = candidates_.size();
-  local_.assign(at(body.num_elements()), 0);
+  clearance_.resize(list_size_, -std::numeric_limits<double>::infinity());
+  changed_at_.resize(list_size_);
   return true;
 }
 
@@ -355,12 +398,20 @@ void SelfCollisions::drop_local_pairs() {
   std::fill(local_.begin(), local_.end(), 0);
 }
 
-void SelfCollisions::update_orientations(const Body& body, const Points& x0, const Points& d) {
-  affine_.resize(at(body.num_elements()));
+void SelfCollisions::update_orientations(const Body& body, const Points& x0, const Points& d,
+                                         const std::vector<std::uint8_t>* moved) {
+  if (affine_.size() != at(body.num_elements())) {
+    affine_.resize(at(body.num_elements()));
+    moved = nullptr;
+  }
   tbb::parallel_for(tbb::blocked_range<Index>(0, body.num_elements(), kParallelGrain),
                     [&](const tbb::blocked_range<Index>& r) {
-                      for (Index e = r.begin(); e != r.end(); ++e)
+                      for (Index e = r.begin(); e != r.end(); ++e) {
+                        if (moved && !((*moved)[at(body.tets(e, 0))] || (*moved)[at(body.tets(e, 1))] ||
+                                       (*moved)[at(body.tets(e, 2))] || (*moved)[at(body.tets(e, 3))]))
+                          continue;  // its nodes did not move: as it was
                         affine_[at(e)] = stays_positive(body, x0, d, e) ? 1 : 0;
+                      }
                     });
 }
 
@@ -581,9 +632,11 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   const Points xs0 = body.embedding.surface_positions(body.tets, x0);
   Points ds = body.embedding.surface_positions(body.tets, d);  // W d: the surface's displacements
   drop_local_pairs();  // the last step's
-  find_candidates(body, xs0, ds, thickness, stats);
+  find_candidates(body, x0, d, xs0, ds, thickness, stats);
   update_orientations(body, x0, d);
+  list_unsafe_groups(body, x0, d, nullptr, thickness);
   add_local_pairs(body, xs0, thickness);
+  stats.listed += static_cast<std::int64_t>(candidates_.size());
   // A new step: every pair is measured at its first detection.
   std::fill(clearance_.begin(), clearance_.end(), -std::numeric_limits<double>::infinity());
   ds_last_.resize(0, 3);
@@ -606,17 +659,21 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   // Detection again after impulses. With `only` (per surface vertex), and
   // the candidate list kept, only pairs with a flagged vertex are measured:
   // the others' vertices stand and move as when they were measured.
-  auto redetect = [&](const std::vector<Index>* zone, const std::vector<std::uint8_t>* only) {
+  // `moved` (per node) flags the nodes moved since the last detection.
+  auto redetect = [&](const std::vector<Index>* zone, const std::vector<std::uint8_t>* only,
+                      const std::vector<std::uint8_t>* moved) {
     ds = body.embedding.surface_positions(body.tets, d);
-    const bool rebuilt = find_candidates(body, xs0, ds, thickness, stats);
+    const bool rebuilt = find_candidates(body, x0, d, xs0, ds, thickness, stats);
     // Impulses and rigid zones move nodes: an element may no longer stay
-    // positive (its pairs are measured from now on; its vertices are among
-    // the flagged ones, as a node of it moved).
-    update_orientations(body, x0, d);
+    // positive, a star no longer calm (their pairs are measured from now
+    // on; an element's vertices are among the flagged ones, as a node of it
+    // moved).
+    update_orientations(body, x0, d, rebuilt ? nullptr : moved);
+    const bool added = !rebuilt && list_unsafe_groups(body, x0, d, moved, thickness);
     add_local_pairs(body, xs0, thickness);
-    return detect(body, xs0, ds, thickness, zone, rebuilt ? nullptr : only, stats);
+    return detect(body, xs0, ds, thickness, zone, rebuilt || added ? nullptr : only, stats);
   };
-  if (stats.repulsions > 0) impacts = redetect(nullptr, nullptr);
+  if (stats.repulsions > 0) impacts = redetect(nullptr, nullptr, nullptr);
 
   // Impulse rounds: each impact stops the pair's approach where CCD found it.
   std::vector<std::uint8_t> moved(at(body.num_nodes())), again(at(body.embedding.num_vertices()));
@@ -642,7 +699,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
     }
     for (const Impact& impact : impacts)
       for (const Index v : candidates_[impact.pair].vertices) again[at(v)] = 1;
-    impacts = redetect(nullptr, &again);
+    impacts = redetect(nullptr, &again, &moved);
   }
   if (impacts.empty()) return stats;
 
@@ -673,7 +730,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
         }
     }
     rigidify_zones();
-    impacts = redetect(&root, nullptr);
+    impacts = redetect(&root, nullptr, nullptr);
   }
   if (!impacts.empty()) {  // the last resort: the whole body as one zone
     for (Index n = 1; n < nn; ++n) zones.unite(0, n);

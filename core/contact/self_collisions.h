@@ -16,6 +16,7 @@
 
 #include "core/body.h"
 #include "core/contact/box_pairs.h"
+#include "core/contact/calm_stars.h"
 #include "core/contact/ccd.h"
 
 namespace goo {
@@ -29,12 +30,13 @@ struct SelfCollisionStats {
   Index zone_nodes = 0;         ///< nodes moved rigidly by the fail-safe
   Index touching_at_start = 0;  ///< pairs at distance 0 when the step began (left alone)
   Index list_builds = 0;        ///< broad phases run (a candidate list is kept while it holds)
+  std::int64_t listed = 0;      ///< pairs on the list at each step's first detection, summed over steps
   Index waited = 0;             ///< steps left alone: an element was inverted
 
   SelfCollisionStats& operator+=(const SelfCollisionStats& o) {
     candidates += o.candidates, repulsions += o.repulsions, impacts += o.impacts, rounds += o.rounds;
     zone_rounds += o.zone_rounds, zone_nodes += o.zone_nodes, touching_at_start += o.touching_at_start;
-    list_builds += o.list_builds, waited += o.waited;
+    list_builds += o.list_builds, listed += o.listed, waited += o.waited;
     return *this;
   }
 };
@@ -106,8 +108,18 @@ class SelfCollisions {
   /// vertex stays within its margin of where it was at the build (after the
   /// surface's mean translation); kept while that holds.
   /// Returns whether the list was built anew.
-  bool find_candidates(const Body& body, const Points& xs0, const Points& ds, double thickness,
-                       SelfCollisionStats& stats);
+  bool find_candidates(const Body& body, const Points& x0, const Points& d, const Points& xs0, const Points& ds,
+                       double thickness, SelfCollisionStats& stats);
+  /// The primitive pairs of triangles A and B the list holds (A's own
+  /// vertices against B and B's against A, their own edges against each
+  /// other; boxes of the build overlapping), measured at `xs`.
+  void expand(const Body& body, Index A, Index B, const Points& xs, double thickness, std::vector<Pair>& out) const;
+  /// Lists the pairs of the star groups that stop being safe this step
+  /// (CalmStars) for the rest of the list's life. With `moved` (per node),
+  /// only stars with a moved node are measured again. Returns whether any
+  /// pair was added (the element pairs add_local_pairs appended are dropped).
+  bool list_unsafe_groups(const Body& body, const Points& x0, const Points& d,
+                          const std::vector<std::uint8_t>* moved, double thickness);
   /// Whether the pair keeps its place on the list (its body's own pairs
   /// resolved, and within reach of the thickness); `distance` is its gap now.
   bool keep_pair(ccd::PairKind kind, const std::array<Index, 4>& v, const Points& xs0, double thickness,
@@ -124,7 +136,9 @@ class SelfCollisions {
   }
   /// Per element, whether it stays positively oriented while the nodes move
   /// from x0 to x0 + d.
-  void update_orientations(const Body& body, const Points& x0, const Points& d);
+  /// With `moved` (per node), only elements with a moved node.
+  void update_orientations(const Body& body, const Points& x0, const Points& d,
+                           const std::vector<std::uint8_t>* moved = nullptr);
   /// Appends the pairs within each element that does not stay positively
   /// oriented (and has none listed yet): the list leaves them out.
   void add_local_pairs(const Body& body, const Points& xs0, double thickness);
@@ -166,6 +180,10 @@ class SelfCollisions {
   std::vector<std::uint8_t> local_;  // per element: its pairs appended this step
   std::size_t list_size_ = 0;
   std::vector<Index> list_parents_;  // each vertex's element when the list was built
+  // Node stars the surface cannot cross itself through while they stay
+  // calm: their groups' pairs are off the list until they do not.
+  CalmStars stars_;
+  std::vector<Box3> vertex_boxes_, triangle_boxes_, edge_boxes_;  // the list's build
   std::vector<std::uint8_t> waiting_;  // per group, this step: an element inverted (its own pairs wait)
   Triangles triangles_;                      // the surface the edges below belong to
   std::vector<std::array<Index, 2>> edges_;  // unique surface edges, sorted

@@ -6,6 +6,7 @@
 
 #include <random>
 
+#include "core/contact/calm_stars.h"
 #include "core/contact/self_collisions.h"
 #include "core/primitives.h"
 #include "core/surface_geometry.h"
@@ -245,6 +246,67 @@ TEST(SelfCollisions, SheetsInAnElementFlattenedMidStepAreKeptApart) {
   for (int k = 0; k <= 1000; ++k) least = std::min(least, gap_at(d, k / 1000.0));
   EXPECT_GE(least, thickness);  // no pair left reported: none came within the thickness (ccd.h)
   EXPECT_LT(momentum_change(body, given, d).norm(), 1e-12 * momentum_scale(body, given));
+}
+
+TEST(StarSpread, NoneForAnAffineMotionAndTheClosedFormOtherwise) {
+  // One gradient throughout: g = 0, the star moves affinely.
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d F = R * Eigen::Vector3d(1.2, 0.9, 0.8).asDiagonal();
+  EXPECT_LE(star_spread(std::vector<Eigen::Matrix3d>(24, F), std::vector<Eigen::Matrix3d>(24, 1.1 * F)), 1e-14);
+  // Two tets, I and diag(2, 1, 1): Ā = diag(1.5, 1, 1), ‖F − Ā‖ = 0.5, σ_min(Ā) = 1.
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d S = Eigen::Vector3d(2.0, 1.0, 1.0).asDiagonal();
+  EXPECT_NEAR(star_spread({I, S}, {I, S}), 0.5, 1e-15);
+  // Ā(t) = (1 − 2t) I passes through 0 at t = 1/2: no bound.
+  EXPECT_TRUE(std::isinf(star_spread({I}, {-I})));
+  // The star grown by 1.2 over the step: L = 0.6 at the end; σ_min 1 → 1.2
+  // with Δ = 0.2 ‖diag(1.5, 1, 1)‖ = 0.2 √4.25, so s = (2.2 − 0.2 √4.25) / 2.
+  const double s = 0.5 * (2.2 - 0.2 * std::sqrt(4.25));
+  EXPECT_NEAR(star_spread({I, S}, {1.2 * I, 1.2 * S}), 0.6 / s, 1e-12);
+}
+
+/// A ball of 0.1 m radius and 4,512 triangles on a 0.04 m lattice (the
+/// nodes inside it have whole stars) and the displacements of a step that
+/// shrinks it by 2 % about its centre.
+struct ShrunkBall {
+  Body body;
+  Points x0, d;
+};
+ShrunkBall shrunk_ball() {
+  ShrunkBall b{mesh_body(make_sphere(0.1, 48), gel(), 0.04).body, {}, {}};
+  b.x0 = b.body.positions;
+  const Eigen::RowVector3d centre = b.x0.colwise().mean();
+  b.d = -0.02 * (b.x0.rowwise() - centre);
+  return b;
+}
+
+TEST(SelfCollisions, PairsInACalmStarStayOffTheListUntilItStopsBeingCalm) {
+  // Moved affinely, every star is calm (κ = 0): its group's pairs are off
+  // the list. The next step keeps the list (every vertex within its
+  // margin) but moves every node by up to 3 mm more, so the gradients
+  // across a star differ by up to ~15 % and κρ passes 1: those groups'
+  // pairs are listed (fewer without).
+  ShrunkBall b = shrunk_ball();
+  SelfCollisions stage;
+  Points d = b.d;
+  const SelfCollisionStats calm = stage.resolve(b.body, b.x0, d, {}, {1e-4, 0.0, 8});
+  EXPECT_EQ(calm.list_builds, 1);
+  EXPECT_TRUE(d == b.d);
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  Points stirred = b.d;
+  for (Index n = 0; n < b.body.num_nodes(); ++n)
+    for (int k = 0; k < 3; ++k) stirred(n, k) += 0.003 * unit(random);
+  d = stirred;
+  const SelfCollisionStats stirred_stats = stage.resolve(b.body, b.x0, d, {}, {1e-4, 0.0, 8});
+  EXPECT_EQ(stirred_stats.list_builds, 0);  // the same list, with the stirred stars' pairs added
+  EXPECT_GT(stirred_stats.listed, calm.listed);
+  // A fresh stage builds its list with the stirred stars left out of groups.
+  SelfCollisions fresh;
+  d = stirred;
+  const SelfCollisionStats built = fresh.resolve(b.body, b.x0, d, {}, {1e-4, 0.0, 8});
+  EXPECT_GT(built.listed, calm.listed);
+  for (const double t : {0.0, 0.5, 1.0}) EXPECT_EQ(crossings_at(b.body, b.x0, d, t), 0u);
 }
 
 TEST(SelfCollisions, ABodyWithAnInvertedElementIsLeftToTurnBack) {

@@ -1,0 +1,319 @@
+#include "core/contact/calm_stars.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/contact/box_pairs.h"
+#include "core/contact/ccd.h"
+#include "core/parallel.h"
+
+namespace goo {
+namespace {
+
+using Vec3 = Eigen::Vector3d;
+
+// κ × ratio must stay below 1 all step for a group's pairs to go unmeasured
+// (with room for the rounding of κ, a few ulps of its terms); a list groups
+// only stars at most half way there, so that most last the list's life.
+constexpr double kUnsafe = 1.0 - 1e-9;
+constexpr double kGroupable = 0.5;
+
+double smallest_singular_value(const Eigen::Matrix3d& A) {
+  return Eigen::JacobiSVD<Eigen::Matrix3d>(A).singularValues()(2);
+}
+
+Eigen::Matrix3d edge_matrix(const Tets& tets, const Points& x, Index e) {
+  Eigen::Matrix3d D;
+  const Index n0 = tets(e, 0);
+  for (int k = 1; k < 4; ++k) D.col(k - 1) = (x.row(tets(e, k)) - x.row(n0)).transpose();
+  return D;
+}
+
+/// The largest ratio D / d over the primitive pairs of triangles a and b
+/// (rest corners pa, pb; vertex ids ia, ib) that share no vertex and do not
+/// lie in one element: every pair the self-collision list can hold of them.
+double pair_ratio(const std::array<Index, 3>& ia, const std::array<Index, 3>& ib, const std::array<Vec3, 3>& pa,
+                  const std::array<Vec3, 3>& pb, const std::vector<Index>& parent) {
+  double ratio = 0.0;
+  auto consider = [&](ccd::PairKind kind, const ccd::Points4& x, const std::array<Index, 4>& v, std::size_t first) {
+    const Index e = parent[at(v[0])];
+    if (parent[at(v[1])] == e && parent[at(v[2])] == e && parent[at(v[3])] == e) return;
+    double D = 0.0;
+    for (std::size_t i = 0; i < first; ++i)
+      for (std::size_t j = first; j < 4; ++j) D = std::max(D, (x[i] - x[j]).norm());
+    const double d = ccd::closest(kind, x).distance;
+    ratio = std::max(ratio, d > 0.0 ? D / d : std::numeric_limits<double>::infinity());
+  };
+  auto shares = [](Index v, const std::array<Index, 3>& t) { return v == t[0] || v == t[1] || v == t[2]; };
+  for (int side = 0; side < 2; ++side) {
+    const auto& iv = side == 0 ? ia : ib;
+    const auto& it = side == 0 ? ib : ia;
+    const auto& pv = side == 0 ? pa : pb;
+    const auto& pt = side == 0 ? pb : pa;
+    for (std::size_t k = 0; k < 3; ++k)
+      if (!shares(iv[k], it))
+        consider(ccd::PairKind::vertex_triangle, {pv[k], pt[0], pt[1], pt[2]}, {iv[k], it[0], it[1], it[2]}, 1);
+  }
+  for (std::size_t a = 0; a < 3; ++a)
+    for (std::size_t b = 0; b < 3; ++b) {
+      const std::size_t a1 = (a + 1) % 3, b1 = (b + 1) % 3;
+      if (ia[a] == ib[b] || ia[a] == ib[b1] || ia[a1] == ib[b] || ia[a1] == ib[b1]) continue;
+      consider(ccd::PairKind::edge_edge, {pa[a], pa[a1], pb[b], pb[b1]}, {ia[a], ia[a1], ib[b], ib[b1]}, 2);
+    }
+  return ratio;
+}
+
+}  // namespace
+
+double star_spread(const std::vector<Eigen::Matrix3d>& F0, const std::vector<Eigen::Matrix3d>& F1) {
+  if (F0.empty()) return std::numeric_limits<double>::infinity();
+  Eigen::Matrix3d A0 = Eigen::Matrix3d::Zero(), A1 = Eigen::Matrix3d::Zero();
+  for (std::size_t k = 0; k < F0.size(); ++k) {
+    A0 += F0[k];
+    A1 += F1[k];
+  }
+  A0 /= double(F0.size());
+  A1 /= double(F1.size());
+  double L = 0.0;
+  for (std::size_t k = 0; k < F0.size(); ++k) L = std::max({L, (F0[k] - A0).norm(), (F1[k] - A1).norm()});
+  const double s0 = smallest_singular_value(A0), s1 = smallest_singular_value(A1), delta = (A1 - A0).norm();
+  const double s = std::min({s0, s1, 0.5 * (s0 + s1 - delta)});
+  return s > 0.0 ? L / s : std::numeric_limits<double>::infinity();
+}
+
+bool CalmStars::update_mesh(const Body& body) {
+  if (tets_.rows() == body.tets.rows() && tets_ == body.tets && rest_.rows() == body.rest_positions.rows() &&
+      rest_ == body.rest_positions)
+    return false;
+  tets_ = body.tets;
+  rest_ = body.rest_positions;
+  const Index ne = static_cast<Index>(tets_.rows()), nn = static_cast<Index>(rest_.rows());
+  eligible_.assign(at(nn), 0);
+  rest_inverse_.assign(at(ne), Eigen::Matrix3d::Zero());
+  if (nn != body.num_nodes() || ne == 0) return true;
+  incidence_ = NodeIncidence::build(tets_, nn);
+  std::vector<std::uint8_t> positive(at(ne), 0);
+  for (Index e = 0; e < ne; ++e) {
+    const Eigen::Matrix3d D = edge_matrix(tets_, rest_, e);
+    if (D.determinant() > 0.0) {
+      positive[at(e)] = 1;
+      rest_inverse_[at(e)] = D.inverse();
+    }
+  }
+  tbb::parallel_for(tbb::blocked_range<Index>(0, nn, 256), [&](const tbb::blocked_range<Index>& r) {
+    for (Index n = r.begin(); n != r.end(); ++n) {
+      const auto begin = incidence_.offsets[at(n)], end = incidence_.offsets[at(n) + 1];
+      if (begin == end) continue;
+      bool ok = true;
+      // Closed: every face through n is shared by two tets of the star,
+      // i.e. every link edge appears twice.
+      std::vector<std::array<Index, 2>> link_edges;
+      std::vector<Index> link;
+      for (Index c = begin; c < end && ok; ++c) {
+        const Index e = incidence_.corners[at(c)] / 4, k = incidence_.corners[at(c)] % 4;
+        ok = positive[at(e)] != 0;
+        std::array<Index, 3> o{};
+        for (int i = 1; i < 4; ++i) o[at(i - 1)] = tets_(e, (k + i) % 4);
+        for (int i = 0; i < 3; ++i) {
+          link_edges.push_back({std::min(o[at(i)], o[at((i + 1) % 3)]), std::max(o[at(i)], o[at((i + 1) % 3)])});
+          link.push_back(o[at(i)]);
+        }
+      }
+      if (!ok) continue;
+      std::sort(link_edges.begin(), link_edges.end());
+      for (std::size_t i = 0; i < link_edges.size() && ok; i += 2)
+        ok = i + 1 < link_edges.size() && link_edges[i] == link_edges[i + 1] &&
+             (i + 2 >= link_edges.size() || link_edges[i + 2] != link_edges[i]);
+      if (!ok) continue;
+      std::sort(link.begin(), link.end());
+      link.erase(std::unique(link.begin(), link.end()), link.end());
+      // Convex: every link vertex on n's side of (or on) every outer face's plane.
+      const Vec3 xn = rest_.row(n).transpose();
+      for (Index c = begin; c < end && ok; ++c) {
+        const Index e = incidence_.corners[at(c)] / 4, k = incidence_.corners[at(c)] % 4;
+        const Vec3 a = rest_.row(tets_(e, (k + 1) % 4)).transpose(), b = rest_.row(tets_(e, (k + 2) % 4)).transpose(),
+                   cc = rest_.row(tets_(e, (k + 3) % 4)).transpose();
+        Vec3 normal = (b - a).cross(cc - a);
+        if (normal.dot(xn - a) > 0.0) normal = -normal;
+        const double scale = std::max({(b - a).norm(), (cc - a).norm(), (xn - a).norm()});
+        const double tolerance = 1e-9 * normal.norm() * scale;
+        for (const Index w : link)
+          if (normal.dot(rest_.row(w).transpose() - a) > tolerance) ok = false;
+      }
+      eligible_[at(n)] = ok ? 1 : 0;
+    }
+  });
+  return true;
+}
+
+void CalmStars::update_surface(const Body& body, const std::vector<Index>& element_of) {
+  const Triangles& tris = body.surface_triangles;
+  if (triangles_.rows() == tris.rows() && triangles_ == tris && parents_ == body.embedding.parent &&
+      bary_.rows() == body.embedding.bary.rows() && bary_ == body.embedding.bary)
+    return;
+  triangles_ = tris;
+  parents_ = body.embedding.parent;
+  bary_ = body.embedding.bary;
+  near_.clear();
+  near_ratio_.clear();
+  if (rest_.rows() != body.num_nodes()) return;
+  surface_rest_ = body.embedding.surface_positions(body.tets, body.rest_positions);
+  const Index nt = static_cast<Index>(tris.rows());
+  std::vector<Box3> boxes(at(nt));
+  for (Index t = 0; t < nt; ++t) {
+    Box3 b;
+    double diameter = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      b.extend(Vec3(surface_rest_.row(tris(t, k)).transpose()));
+      diameter = std::max(diameter, (surface_rest_.row(tris(t, k)) - surface_rest_.row(tris(t, (k + 1) % 3))).norm());
+    }
+    const double grow = diameter / (kRatio - 1.0);
+    b.min().array() -= grow;
+    b.max().array() += grow;
+    boxes[at(t)] = b;
+  }
+  const auto pairs = overlapping_pairs(boxes, &element_of);  // two in one element hold one-element pairs only
+  std::vector<double> ratio(pairs.size(), 0.0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      std::array<Index, 3> ia{}, ib{};
+      std::array<Vec3, 3> pa, pb;
+      for (int k = 0; k < 3; ++k) {
+        ia[at(k)] = tris(pairs[i][0], k);
+        ib[at(k)] = tris(pairs[i][1], k);
+        pa[at(k)] = surface_rest_.row(ia[at(k)]).transpose();
+        pb[at(k)] = surface_rest_.row(ib[at(k)]).transpose();
+      }
+      ratio[i] = pair_ratio(ia, ib, pa, pb, parents_);
+    }
+  });
+  for (std::size_t i = 0; i < pairs.size(); ++i)
+    if (!(ratio[i] <= kRatio)) {
+      near_.push_back(pairs[i]);
+      near_ratio_.push_back(ratio[i]);
+    }
+}
+
+void CalmStars::gradients(const Body& body, const Points& x0, const Points& d,
+                          const std::vector<std::uint8_t>* elements) {
+  const Index ne = body.num_elements();
+  F0_.resize(at(ne));
+  F1_.resize(at(ne));
+  const Points x1 = x0 + d;
+  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index e = r.begin(); e != r.end(); ++e) {
+      if (elements && !(*elements)[at(e)]) continue;
+      F0_[at(e)] = edge_matrix(body.tets, x0, e) * rest_inverse_[at(e)];
+      F1_[at(e)] = edge_matrix(body.tets, x1, e) * rest_inverse_[at(e)];
+    }
+  });
+}
+
+double CalmStars::spread(const Body& body, Index n) const {
+  (void)body;
+  std::vector<Eigen::Matrix3d> F0, F1;
+  for (Index c = incidence_.offsets[at(n)]; c < incidence_.offsets[at(n) + 1]; ++c) {
+    const Index e = incidence_.corners[at(c)] / 4;
+    F0.push_back(F0_[at(e)]);
+    F1.push_back(F1_[at(e)]);
+  }
+  return star_spread(F0, F1);
+}
+
+std::vector<Index> CalmStars::assign_groups(const Body& body, const Points& x0, const Points& d) {
+  const Index nt = static_cast<Index>(body.surface_triangles.rows());
+  const Index nn = body.num_nodes();
+  group_.assign(at(nt), -1);
+  kappa_.assign(at(nn), std::numeric_limits<double>::infinity());
+  ratio_.assign(at(nn), kRatio);
+  active_.assign(at(nn), 0);
+  offsets_.assign(at(nn) + 1, 0);
+  members_.clear();
+  grouped_.clear();
+  if (eligible_.size() != at(nn) || surface_rest_.rows() != body.embedding.num_vertices()) return group_;
+  gradients(body, x0, d, nullptr);
+  tbb::parallel_for(tbb::blocked_range<Index>(0, nn, 64), [&](const tbb::blocked_range<Index>& r) {
+    for (Index n = r.begin(); n != r.end(); ++n)
+      if (eligible_[at(n)]) kappa_[at(n)] = spread(body, n);
+  });
+  const Triangles& tris = body.surface_triangles;
+  const auto& parent = body.embedding.parent;
+  for (Index t = 0; t < nt; ++t) {
+    bool inside = true;
+    for (int k = 0; k < 3 && inside; ++k) inside = (body.embedding.bary.row(tris(t, k)).array() >= 0.0).all();
+    if (!inside) continue;
+    const Vec3 centroid =
+        (surface_rest_.row(tris(t, 0)) + surface_rest_.row(tris(t, 1)) + surface_rest_.row(tris(t, 2))).transpose() / 3.0;
+    const Index e0 = parent[at(tris(t, 0))], e1 = parent[at(tris(t, 1))], e2 = parent[at(tris(t, 2))];
+    auto holds = [&](Index e, Index n) {
+      return body.tets(e, 0) == n || body.tets(e, 1) == n || body.tets(e, 2) == n || body.tets(e, 3) == n;
+    };
+    double best = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 4; ++k) {
+      const Index n = body.tets(e0, k);
+      if (!eligible_[at(n)] || !(kappa_[at(n)] * kRatio < kGroupable) || !holds(e1, n) || !holds(e2, n)) continue;
+      const double dist = (body.rest_positions.row(n).transpose() - centroid).squaredNorm();
+      if (dist < best || (dist == best && n < group_[at(t)])) {
+        best = dist;
+        group_[at(t)] = n;
+      }
+    }
+  }
+  for (std::size_t i = 0; i < near_.size(); ++i) {
+    const Index g = group_[at(near_[i][0])];
+    if (g >= 0 && g == group_[at(near_[i][1])]) ratio_[at(g)] = std::max(ratio_[at(g)], near_ratio_[i]);
+  }
+  for (Index t = 0; t < nt; ++t) {
+    const Index g = group_[at(t)];
+    if (g >= 0 && !(kappa_[at(g)] * ratio_[at(g)] < kGroupable)) group_[at(t)] = -1;
+  }
+  for (Index t = 0; t < nt; ++t)
+    if (group_[at(t)] >= 0) ++offsets_[at(group_[at(t)]) + 1];
+  for (Index n = 0; n < nn; ++n) {
+    if (offsets_[at(n) + 1] > 0) grouped_.push_back(n);
+    offsets_[at(n) + 1] += offsets_[at(n)];
+  }
+  members_.resize(at(offsets_[at(nn)]));
+  std::vector<Index> next(offsets_.begin(), offsets_.end() - 1);
+  for (Index t = 0; t < nt; ++t)
+    if (group_[at(t)] >= 0) members_[at(next[at(group_[at(t)])]++)] = t;
+  return group_;
+}
+
+std::vector<Index> CalmStars::newly_unsafe(const Body& body, const Points& x0, const Points& d,
+                                           const std::vector<std::uint8_t>* moved) {
+  if (grouped_.empty()) return {};
+  const Index ne = body.num_elements();
+  std::vector<std::uint8_t> elements(at(ne), moved ? 0 : 1);
+  if (moved)
+    for (Index e = 0; e < ne; ++e)
+      for (int k = 0; k < 4; ++k) elements[at(e)] |= (*moved)[at(body.tets(e, k))];
+  gradients(body, x0, d, &elements);
+  std::vector<std::uint8_t> unsafe(grouped_.size(), 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grouped_.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      const Index n = grouped_[i];
+      if (active_[at(n)]) continue;
+      bool touched = !moved;
+      for (Index c = incidence_.offsets[at(n)]; c < incidence_.offsets[at(n) + 1] && !touched; ++c)
+        touched = elements[at(incidence_.corners[at(c)] / 4)] != 0;
+      if (!touched) continue;
+      kappa_[at(n)] = spread(body, n);
+      unsafe[i] = !(kappa_[at(n)] * ratio_[at(n)] < kUnsafe) ? 1 : 0;
+    }
+  });
+  std::vector<Index> out;
+  for (std::size_t i = 0; i < grouped_.size(); ++i)
+    if (unsafe[i]) {
+      active_[at(grouped_[i])] = 1;
+      out.push_back(grouped_[i]);
+    }
+  return out;
+}
+
+}  // namespace goo

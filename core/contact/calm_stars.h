@@ -1,0 +1,93 @@
+#pragma once
+// Node stars through which the embedded surface cannot pass through itself
+// over a step (docs/embedded-surface.md, "Pairs in a calm star").
+//
+// The nodes move linearly over the step, so the lattice maps rest space to
+// the world by a piecewise-linear f_t. On the star of a node n (its tets),
+// convex in rest space, write f_t(X) = Ā(t) X + c + g(X) with Ā the mean of
+// the star's gradients F_T(t) and g's gradient F_T − Ā, at most L in norm.
+// Two surface primitives with rest vertices X_i and Y_j, all in the star,
+// sit in the world at Σ u_i f(X_i) and Σ v_j f(Y_j); their gap is at least
+//   σ_min(Ā) |P − Q| − L max_ij |X_i − Y_j|  ≥  σ d − L D
+// with d their rest distance and D their largest rest vertex distance. So
+// while κ = L / σ_min(Ā) stays below d / D all step, the pair cannot touch:
+// it needs no measuring. A pair's ratio ρ = D / d is fixed by the rest
+// surface; pairs of a star group are either at most kRatio, or found once
+// per surface ("near" pairs), and the group's largest ratio bounds them all.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/body.h"
+
+namespace goo {
+
+/// κ = L / s over a step for a star whose tets have gradients F0[k] at its
+/// start and F1[k] at its end (F linear in t): L the largest ‖F_T − Ā‖_F at
+/// either end (‖·‖ is convex, so it bounds every time), s a lower bound of
+/// σ_min(Ā(t)) on [0, 1]: σ_min is 1-Lipschitz in Ā, which moves by
+/// Δ = ‖Ā1 − Ā0‖_F, so s = min(σ0, σ1, (σ0 + σ1 − Δ) / 2). Infinite when s ≤ 0.
+double star_spread(const std::vector<Eigen::Matrix3d>& F0, const std::vector<Eigen::Matrix3d>& F1);
+
+class CalmStars {
+ public:
+  /// Pairs farther apart in rest space than (diam_A + diam_B) / (kRatio − 1)
+  /// have D / d ≤ kRatio (D ≤ d + diam_A + diam_B); closer ones are found.
+  static constexpr double kRatio = 4.0;
+
+  /// Per mesh (kept while tets and rest positions are unchanged): the nodes
+  /// whose star is a closed, convex ball of positively oriented rest tets.
+  /// Returns whether the mesh changed.
+  bool update_mesh(const Body& body);
+  /// Per surface (kept while triangles and embedding are unchanged): the
+  /// rest positions of the surface vertices and the triangle pairs with a
+  /// primitive pair of ratio above kRatio, with their largest ratio.
+  void update_surface(const Body& body, const std::vector<Index>& element_of);
+
+  /// Each triangle's star group at a list build: among the nodes whose star
+  /// holds all its corners (at barycentric coordinates ≥ 0), the one nearest
+  /// its rest centroid with κ × ratio below a half this step; −1 if none. A
+  /// group whose near pairs raise its ratio past that is dissolved.
+  /// Starts every group inactive.
+  std::vector<Index> assign_groups(const Body& body, const Points& x0, const Points& d);
+
+  /// The groups that stop being safe this step (κ × ratio ≥ 1, with the
+  /// nodes at x0 moving by d), each returned once until the next
+  /// assign_groups. With `moved` (per node), only stars with a moved node
+  /// are measured again (the others' κ is unchanged).
+  std::vector<Index> newly_unsafe(const Body& body, const Points& x0, const Points& d,
+                                  const std::vector<std::uint8_t>* moved);
+
+  /// The triangles of group n (valid after assign_groups).
+  [[nodiscard]] std::vector<Index> members(Index n) const {
+    return {members_.begin() + offsets_[static_cast<std::size_t>(n)],
+            members_.begin() + offsets_[static_cast<std::size_t>(n) + 1]};
+  }
+
+ private:
+  void gradients(const Body& body, const Points& x0, const Points& d, const std::vector<std::uint8_t>* elements);
+  [[nodiscard]] double spread(const Body& body, Index n) const;
+
+  Tets tets_;                // the mesh the stars below belong to
+  Points rest_;              // its rest positions
+  NodeIncidence incidence_;
+  std::vector<std::uint8_t> eligible_;           // per node
+  std::vector<Eigen::Matrix3d> rest_inverse_;    // per element, D(X)⁻¹
+  std::vector<Eigen::Matrix3d> F0_, F1_;         // per element, gradients at the step's start and end
+
+  Triangles triangles_;      // the surface below belongs to
+  std::vector<Index> parents_;
+  Eigen::MatrixXd bary_;
+  Points surface_rest_;                          // per surface vertex, its rest position
+  std::vector<std::array<Index, 2>> near_;       // triangle pairs with a ratio above kRatio
+  std::vector<double> near_ratio_;
+
+  std::vector<Index> group_;                     // per triangle, this list's
+  std::vector<double> ratio_;                    // per node: its group's largest ratio
+  std::vector<double> kappa_;                    // per node, this step
+  std::vector<std::uint8_t> active_;             // per node: group reported unsafe
+  std::vector<Index> offsets_, members_;         // the groups' triangles
+  std::vector<Index> grouped_;                   // nodes with a group
+};
+
+}  // namespace goo
