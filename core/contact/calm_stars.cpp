@@ -19,9 +19,9 @@ using Vec3 = Eigen::Vector3d;
 
 // κ × ratio must stay below 1 all step for a group's pairs to go unmeasured
 // (with room for the rounding of κ, a few ulps of its terms); a list groups
-// only stars at most half way there, so that most last the list's life.
+// only stars with κ × kRatio at most three quarters of the way there.
 constexpr double kUnsafe = 1.0 - 1e-9;
-constexpr double kGroupable = 0.5;
+constexpr double kGroupable = 0.75;
 
 double smallest_singular_value(const Eigen::Matrix3d& A) {
   return Eigen::JacobiSVD<Eigen::Matrix3d>(A).singularValues()(2);
@@ -161,11 +161,33 @@ void CalmStars::update_surface(const Body& body, const std::vector<Index>& eleme
   bary_ = body.embedding.bary;
   near_.clear();
   near_ratio_.clear();
+  candidates_.clear();
   if (rest_.rows() != body.num_nodes()) return;
   surface_rest_ = body.embedding.surface_positions(body.tets, body.rest_positions);
   const Index nt = static_cast<Index>(tris.rows());
+  // Only triangles that can join a group (a whole star holds their
+  // corners) have near pairs that count, and only with a triangle that can
+  // join the same one: the others' boxes stay empty.
   std::vector<Box3> boxes(at(nt));
+  const auto& parent = body.embedding.parent;
+  candidates_.assign(at(nt), {-1, -1, -1, -1});
+  star_has_surface_.assign(eligible_.size(), 0);
   for (Index t = 0; t < nt; ++t) {
+    bool any = false;
+    for (int k = 0; k < 4; ++k) {
+      const Index n = body.tets(parent[at(tris(t, 0))], k);
+      bool held = eligible_.size() == at(body.num_nodes()) && eligible_[at(n)];
+      for (int c = 1; c < 3 && held; ++c) {
+        const Index e = parent[at(tris(t, c))];
+        held = body.tets(e, 0) == n || body.tets(e, 1) == n || body.tets(e, 2) == n || body.tets(e, 3) == n;
+      }
+      if (held) {
+        candidates_[at(t)][at(k)] = n;
+        star_has_surface_[at(n)] = 1;
+        any = true;
+      }
+    }
+    if (!any) continue;
     Box3 b;
     double diameter = 0.0;
     for (int k = 0; k < 3; ++k) {
@@ -181,6 +203,10 @@ void CalmStars::update_surface(const Body& body, const std::vector<Index>& eleme
   std::vector<double> ratio(pairs.size(), 0.0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      bool common = false;
+      for (const Index n : candidates_[at(pairs[i][0])])
+        for (const Index m : candidates_[at(pairs[i][1])]) common = common || (n >= 0 && n == m);
+      if (!common) continue;  // never in one group
       std::array<Index, 3> ia{}, ib{};
       std::array<Vec3, 3> pa, pb;
       for (int k = 0; k < 3; ++k) {
@@ -230,33 +256,31 @@ std::vector<Index> CalmStars::assign_groups(const Body& body, const Points& x0, 
   const Index nn = body.num_nodes();
   group_.assign(at(nt), -1);
   kappa_.assign(at(nn), std::numeric_limits<double>::infinity());
-  ratio_.assign(at(nn), kRatio);
-  active_.assign(at(nn), 0);
+  full_.assign(at(nn), 0);
+  near_listed_.assign(at(nn), 0);
   offsets_.assign(at(nn) + 1, 0);
+  near_offsets_.assign(at(nn) + 1, 0);
+  near_members_.clear();
   members_.clear();
   grouped_.clear();
-  if (eligible_.size() != at(nn) || surface_rest_.rows() != body.embedding.num_vertices()) return group_;
+  if (eligible_.size() != at(nn) || candidates_.size() != at(nt) || star_has_surface_.size() != at(nn) ||
+      surface_rest_.rows() != body.embedding.num_vertices())
+    return group_;
   gradients(body, x0, d, nullptr);
   tbb::parallel_for(tbb::blocked_range<Index>(0, nn, 64), [&](const tbb::blocked_range<Index>& r) {
     for (Index n = r.begin(); n != r.end(); ++n)
-      if (eligible_[at(n)]) kappa_[at(n)] = spread(body, n);
+      if (eligible_[at(n)] && star_has_surface_[at(n)]) kappa_[at(n)] = spread(body, n);
   });
   const Triangles& tris = body.surface_triangles;
-  const auto& parent = body.embedding.parent;
   for (Index t = 0; t < nt; ++t) {
     bool inside = true;
     for (int k = 0; k < 3 && inside; ++k) inside = (body.embedding.bary.row(tris(t, k)).array() >= 0.0).all();
     if (!inside) continue;
     const Vec3 centroid =
         (surface_rest_.row(tris(t, 0)) + surface_rest_.row(tris(t, 1)) + surface_rest_.row(tris(t, 2))).transpose() / 3.0;
-    const Index e0 = parent[at(tris(t, 0))], e1 = parent[at(tris(t, 1))], e2 = parent[at(tris(t, 2))];
-    auto holds = [&](Index e, Index n) {
-      return body.tets(e, 0) == n || body.tets(e, 1) == n || body.tets(e, 2) == n || body.tets(e, 3) == n;
-    };
     double best = std::numeric_limits<double>::infinity();
-    for (int k = 0; k < 4; ++k) {
-      const Index n = body.tets(e0, k);
-      if (!eligible_[at(n)] || !(kappa_[at(n)] * kRatio < kGroupable) || !holds(e1, n) || !holds(e2, n)) continue;
+    for (const Index n : candidates_[at(t)]) {
+      if (n < 0 || !(kappa_[at(n)] * kRatio < kGroupable)) continue;
       const double dist = (body.rest_positions.row(n).transpose() - centroid).squaredNorm();
       if (dist < best || (dist == best && n < group_[at(t)])) {
         best = dist;
@@ -264,14 +288,23 @@ std::vector<Index> CalmStars::assign_groups(const Body& body, const Points& x0, 
       }
     }
   }
+  // Each group's near pairs, largest ratio first (then by pair).
   for (std::size_t i = 0; i < near_.size(); ++i) {
     const Index g = group_[at(near_[i][0])];
-    if (g >= 0 && g == group_[at(near_[i][1])]) ratio_[at(g)] = std::max(ratio_[at(g)], near_ratio_[i]);
+    if (g >= 0 && g == group_[at(near_[i][1])]) ++near_offsets_[at(g) + 1];
   }
-  for (Index t = 0; t < nt; ++t) {
-    const Index g = group_[at(t)];
-    if (g >= 0 && !(kappa_[at(g)] * ratio_[at(g)] < kGroupable)) group_[at(t)] = -1;
+  for (Index n = 0; n < nn; ++n) near_offsets_[at(n) + 1] += near_offsets_[at(n)];
+  near_members_.resize(at(near_offsets_[at(nn)]));
+  {
+    std::vector<Index> next(near_offsets_.begin(), near_offsets_.end() - 1);
+    for (std::size_t i = 0; i < near_.size(); ++i) {
+      const Index g = group_[at(near_[i][0])];
+      if (g >= 0 && g == group_[at(near_[i][1])]) near_members_[at(next[at(g)]++)] = static_cast<Index>(i);
+    }
   }
+  for (Index n = 0; n < nn; ++n)
+    std::stable_sort(near_members_.begin() + near_offsets_[at(n)], near_members_.begin() + near_offsets_[at(n) + 1],
+                     [&](Index a, Index b) { return near_ratio_[at(a)] > near_ratio_[at(b)]; });
   for (Index t = 0; t < nt; ++t)
     if (group_[at(t)] >= 0) ++offsets_[at(group_[at(t)]) + 1];
   for (Index n = 0; n < nn; ++n) {
@@ -285,8 +318,9 @@ std::vector<Index> CalmStars::assign_groups(const Body& body, const Points& x0, 
   return group_;
 }
 
-std::vector<Index> CalmStars::newly_unsafe(const Body& body, const Points& x0, const Points& d,
-                                           const std::vector<std::uint8_t>* moved) {
+std::vector<std::array<Index, 2>> CalmStars::newly_unsafe(const Body& body, const Points& x0, const Points& d,
+                                                          const std::vector<std::uint8_t>* moved,
+                                                          const std::vector<Box3>& boxes) {
   if (grouped_.empty()) return {};
   const Index ne = body.num_elements();
   std::vector<std::uint8_t> elements(at(ne), moved ? 0 : 1);
@@ -294,25 +328,47 @@ std::vector<Index> CalmStars::newly_unsafe(const Body& body, const Points& x0, c
     for (Index e = 0; e < ne; ++e)
       for (int k = 0; k < 4; ++k) elements[at(e)] |= (*moved)[at(body.tets(e, k))];
   gradients(body, x0, d, &elements);
-  std::vector<std::uint8_t> unsafe(grouped_.size(), 0);
+  std::vector<std::uint8_t> touched(grouped_.size(), 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grouped_.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
       const Index n = grouped_[i];
-      if (active_[at(n)]) continue;
-      bool touched = !moved;
-      for (Index c = incidence_.offsets[at(n)]; c < incidence_.offsets[at(n) + 1] && !touched; ++c)
-        touched = elements[at(incidence_.corners[at(c)] / 4)] != 0;
-      if (!touched) continue;
+      if (full_[at(n)]) continue;
+      bool star_moved = !moved;
+      for (Index c = incidence_.offsets[at(n)]; c < incidence_.offsets[at(n) + 1] && !star_moved; ++c)
+        star_moved = elements[at(incidence_.corners[at(c)] / 4)] != 0;
+      if (!star_moved) continue;
       kappa_[at(n)] = spread(body, n);
-      unsafe[i] = !(kappa_[at(n)] * ratio_[at(n)] < kUnsafe) ? 1 : 0;
+      touched[i] = 1;
     }
   });
-  std::vector<Index> out;
-  for (std::size_t i = 0; i < grouped_.size(); ++i)
-    if (unsafe[i]) {
-      active_[at(grouped_[i])] = 1;
-      out.push_back(grouped_[i]);
+  std::vector<std::array<Index, 2>> out;
+  for (std::size_t i = 0; i < grouped_.size(); ++i) {
+    if (!touched[i]) continue;
+    const Index n = grouped_[i];
+    const double kappa = kappa_[at(n)];
+    const Index near_begin = near_offsets_[at(n)], near_end = near_offsets_[at(n) + 1];
+    if (!(kappa * kRatio < kUnsafe)) {  // every pair of the group
+      full_[at(n)] = 1;
+      std::vector<std::array<Index, 2>> listed;
+      for (Index k = near_begin; k < near_begin + near_listed_[at(n)]; ++k) listed.push_back(near_[at(near_members_[at(k)])]);
+      std::sort(listed.begin(), listed.end());
+      const std::vector<Index> own = members(n);
+      std::vector<Box3> own_boxes;
+      own_boxes.reserve(own.size());
+      for (const Index t : own) own_boxes.push_back(boxes[at(t)]);
+      for (const auto& p : overlapping_pairs(own_boxes, nullptr)) {
+        const std::array<Index, 2> pair{own[at(p[0])], own[at(p[1])]};
+        if (!std::binary_search(listed.begin(), listed.end(), pair)) out.push_back(pair);
+      }
+      continue;
     }
+    // Below that, only near pairs can touch: those whose κ × ratio reaches 1.
+    Index& k = near_listed_[at(n)];
+    while (near_begin + k < near_end && !(kappa * near_ratio_[at(near_members_[at(near_begin + k)])] < kUnsafe)) {
+      out.push_back(near_[at(near_members_[at(near_begin + k)])]);
+      ++k;
+    }
+  }
   return out;
 }
 

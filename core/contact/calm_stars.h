@@ -13,12 +13,13 @@
 // while κ = L / σ_min(Ā) stays below d / D all step, the pair cannot touch:
 // it needs no measuring. A pair's ratio ρ = D / d is fixed by the rest
 // surface; pairs of a star group are either at most kRatio, or found once
-// per surface ("near" pairs), and the group's largest ratio bounds them all.
+// per surface ("near" pairs, with their own ratio).
 #include <array>
 #include <cstdint>
 #include <vector>
 
 #include "core/body.h"
+#include "core/contact/box_pairs.h"
 
 namespace goo {
 
@@ -46,17 +47,19 @@ class CalmStars {
 
   /// Each triangle's star group at a list build: among the nodes whose star
   /// holds all its corners (at barycentric coordinates ≥ 0), the one nearest
-  /// its rest centroid with κ × ratio below a half this step; −1 if none. A
-  /// group whose near pairs raise its ratio past that is dissolved.
-  /// Starts every group inactive.
+  /// its rest centroid with κ × kRatio below three quarters this step; −1
+  /// if none. Starts every group with nothing returned.
   std::vector<Index> assign_groups(const Body& body, const Points& x0, const Points& d);
 
-  /// The groups that stop being safe this step (κ × ratio ≥ 1, with the
-  /// nodes at x0 moving by d), each returned once until the next
-  /// assign_groups. With `moved` (per node), only stars with a moved node
-  /// are measured again (the others' κ is unchanged).
-  std::vector<Index> newly_unsafe(const Body& body, const Points& x0, const Points& d,
-                                  const std::vector<std::uint8_t>* moved);
+  /// The triangle pairs of groups that stop being safe this step, with the
+  /// nodes at x0 moving by d, each returned once until the next
+  /// assign_groups: a group whose κ × kRatio reaches 1 gives all its pairs
+  /// whose `boxes` (per triangle) overlap; below that, only its near pairs
+  /// whose κ × ratio reaches 1 (the others cannot touch). With `moved` (per
+  /// node), only stars with a moved node are measured again.
+  std::vector<std::array<Index, 2>> newly_unsafe(const Body& body, const Points& x0, const Points& d,
+                                                 const std::vector<std::uint8_t>* moved,
+                                                 const std::vector<Box3>& boxes);
 
   /// The triangles of group n (valid after assign_groups).
   [[nodiscard]] std::vector<Index> members(Index n) const {
@@ -79,14 +82,17 @@ class CalmStars {
   std::vector<Index> parents_;
   Eigen::MatrixXd bary_;
   Points surface_rest_;                          // per surface vertex, its rest position
+  std::vector<std::array<Index, 4>> candidates_; // per triangle: the eligible stars holding its corners (−1: none)
+  std::vector<std::uint8_t> star_has_surface_;   // per node: some triangle's candidate
   std::vector<std::array<Index, 2>> near_;       // triangle pairs with a ratio above kRatio
   std::vector<double> near_ratio_;
 
   std::vector<Index> group_;                     // per triangle, this list's
-  std::vector<double> ratio_;                    // per node: its group's largest ratio
   std::vector<double> kappa_;                    // per node, this step
-  std::vector<std::uint8_t> active_;             // per node: group reported unsafe
+  std::vector<std::uint8_t> full_;               // per node: all its group's pairs returned
   std::vector<Index> offsets_, members_;         // the groups' triangles
+  std::vector<Index> near_offsets_, near_members_;  // the groups' near pairs (into near_), by ratio, largest first
+  std::vector<Index> near_listed_;               // per node: how many of them were returned
   std::vector<Index> grouped_;                   // nodes with a group
 };
 

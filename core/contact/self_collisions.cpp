@@ -354,18 +354,11 @@ void SelfCollisions::expand(const Body& body, Index A0, Index B0, const Points& 
 
 bool SelfCollisions::list_unsafe_groups(const Body& body, const Points& x0, const Points& d,
                                         const std::vector<std::uint8_t>* moved, double thickness) {
-  const std::vector<Index> unsafe = stars_.newly_unsafe(body, x0, d, moved);
+  const auto unsafe = stars_.newly_unsafe(body, x0, d, moved, triangle_boxes_);
   if (unsafe.empty()) return false;
   std::vector<Pair> added;
-  for (const Index n : unsafe) {
-    const std::vector<Index> members = stars_.members(n);
-    std::vector<Box3> boxes;
-    boxes.reserve(members.size());
-    for (const Index t : members) boxes.push_back(triangle_boxes_[at(t)]);
-    // Measured where the list was built, as the list's own pairs are.
-    for (const auto& p : overlapping_pairs(boxes, nullptr))
-      expand(body, members[at(p[0])], members[at(p[1])], list_positions_, thickness, added);
-  }
+  // Measured where the list was built, as the list's own pairs are.
+  for (const auto& p : unsafe) expand(body, p[0], p[1], list_positions_, thickness, added);
   drop_local_pairs();
   candidates_.insert(candidates_.end(), added.begin(), added.end());
   list_size_ = candidates_.size();
@@ -669,7 +662,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
     // on; an element's vertices are among the flagged ones, as a node of it
     // moved).
     update_orientations(body, x0, d, rebuilt ? nullptr : moved);
-    const bool added = !rebuilt && list_unsafe_groups(body, x0, d, moved, thickness);
+    const bool added = list_unsafe_groups(body, x0, d, rebuilt ? nullptr : moved, thickness);
     add_local_pairs(body, xs0, thickness);
     return detect(body, xs0, ds, thickness, zone, rebuilt || added ? nullptr : only, stats);
   };
