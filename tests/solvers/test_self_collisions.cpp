@@ -309,6 +309,37 @@ TEST(SelfCollisions, PairsInACalmStarStayOffTheListUntilItStopsBeingCalm) {
   for (const double t : {0.0, 0.5, 1.0}) EXPECT_EQ(crossings_at(b.body, b.x0, d, t), 0u);
 }
 
+TEST(SelfCollisions, CalmGroupsListTheSamePairsOnOneAndTwoThreads) {
+  // The calm ball's step and then its stirred one, on one and on two
+  // threads: the groups (assigned, measured and listed in parallel loops)
+  // and so the pairs walked, and the displacements, are the same.
+  struct Run {
+    SelfCollisionStats calm, stirred;
+    Points d;
+  };
+  auto run = [](int threads) {
+    tbb::global_control control(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    ShrunkBall b = shrunk_ball();
+    SelfCollisions stage;
+    Run r;
+    Points d = b.d;
+    r.calm = stage.resolve(b.body, b.x0, d, {}, {1e-4, 0.0, 8});
+    std::mt19937 random(5);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    for (Index n = 0; n < b.body.num_nodes(); ++n)
+      for (int k = 0; k < 3; ++k) b.d(n, k) += 0.003 * unit(random);
+    r.d = b.d;
+    r.stirred = stage.resolve(b.body, b.x0, r.d, {}, {1e-4, 0.0, 8});
+    return r;
+  };
+  const Run one = run(1), two = run(2);
+  EXPECT_EQ(one.calm.listed, two.calm.listed);
+  EXPECT_EQ(one.stirred.listed, two.stirred.listed);
+  EXPECT_GT(one.stirred.listed, one.calm.listed);  // the groups did form, and some dissolved
+  EXPECT_EQ(one.stirred.candidates, two.stirred.candidates);
+  EXPECT_TRUE(one.d == two.d);
+}
+
 TEST(SelfCollisions, ABodyWithAnInvertedElementIsLeftToTurnBack) {
   // The same throw with the elements of one sphere turned inside out at
   // the step's end (its nodes mirrored through its centre plane): an
