@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <unordered_map>
 #include <vector>
 
 #include "core/error.h"
@@ -164,6 +165,38 @@ TriangleMesh make_torus(double major, double minor, int major_segments, int mino
   for (int i = 0; i < major_segments; ++i)
     for (int j = 0; j < minor_segments; ++j) b.quad(id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
   return b.finish();
+}
+
+TriangleMesh split_into_four(const TriangleMesh& mesh, int times) {
+  if (times < 0) throw Error(fmt::format("split_into_four: times must be at least 0, got {}", times));
+  TriangleMesh out = mesh;
+  for (int pass = 0; pass < times; ++pass) {
+    const Index nv = out.num_vertices(), nt = out.num_triangles();
+    std::unordered_map<std::uint64_t, Index> midpoint;
+    midpoint.reserve(static_cast<std::size_t>(3 * nt / 2 + 1));
+    std::vector<Eigen::RowVector3d> added;
+    auto mid = [&](Index a, Index b) {
+      const auto lo = static_cast<std::uint64_t>(std::min(a, b)), hi = static_cast<std::uint64_t>(std::max(a, b));
+      const auto [it, inserted] = midpoint.try_emplace((lo << 32) | hi, nv + static_cast<Index>(added.size()));
+      if (inserted) added.push_back(0.5 * (out.vertices.row(a) + out.vertices.row(b)));
+      return it->second;
+    };
+    Triangles triangles(4 * nt, 3);
+    for (Index t = 0; t < nt; ++t) {
+      const Index a = out.triangles(t, 0), b = out.triangles(t, 1), c = out.triangles(t, 2);
+      const Index ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
+      triangles.row(4 * t) << a, ab, ca;
+      triangles.row(4 * t + 1) << ab, b, bc;
+      triangles.row(4 * t + 2) << ca, bc, c;
+      triangles.row(4 * t + 3) << ab, bc, ca;
+    }
+    Points vertices(nv + static_cast<Index>(added.size()), 3);
+    vertices.topRows(nv) = out.vertices;
+    for (std::size_t i = 0; i < added.size(); ++i) vertices.row(nv + static_cast<Index>(i)) = added[i];
+    out.vertices = std::move(vertices);
+    out.triangles = std::move(triangles);
+  }
+  return out;
 }
 
 }  // namespace goo

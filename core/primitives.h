@@ -22,4 +22,12 @@ TriangleMesh make_cylinder(double radius, double height, int segments);
 /// tube (each ≥ 3).
 TriangleMesh make_torus(double major, double minor, int major_segments, int minor_segments);
 
+/// Each triangle split into four at its edges' midpoints, `times` times
+/// (4^times as many triangles). Flat: every new vertex lies on an old edge,
+/// so the surface, its area and its enclosed volume are unchanged; closed,
+/// manifold and oriented as the input. A midpoint is shared by the edge's
+/// two triangles; new vertices follow the old ones in the order their edges
+/// are first met (triangles in order, edges 01, 12, 20).
+TriangleMesh split_into_four(const TriangleMesh& mesh, int times = 1);
+
 }  // namespace goo

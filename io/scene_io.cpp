@@ -413,6 +413,17 @@ SceneObject read_object(Node n, std::size_t index, const std::filesystem::path& 
     const double elements = static_cast<double>(o.tet_mesh->tets.rows());
     budget.charge(m, kSetupBytesPerElement * elements, fmt::format("{:.3g} elements", elements));
   }
+  if (auto k = n.get("surface_subdivisions")) {
+    // Each pass splits every triangle into four at its edges' midpoints: a
+    // finer surface of the same shape (W&T fig. 4's hundreds of surface
+    // vertices per element).
+    const int times = k->integer(0, 4);
+    if (has_tets) k->fail("applies to a 'mesh' or 'primitive' surface, not to a 'tet_mesh'");
+    if (o.surface) {
+      charge_triangles(budget, *k, (std::pow(4.0, times) - 1.0) * static_cast<double>(o.surface->num_triangles()));
+      o.surface = split_into_four(*o.surface, times);
+    }
+  }
   Points none;
   Points& x = o.surface ? o.surface->vertices : o.tet_mesh ? o.tet_mesh->positions : none;
   for (Eigen::Index i = 0; i < x.rows(); ++i) x.row(i) = transform.apply(x.row(i).transpose()).transpose();

@@ -37,6 +37,59 @@ TEST(Primitives, AreClosedOutwardManifoldsOfTheRightTopology) {
   for (const int n : {3, 16}) expect_valid_closed(make_torus(1.0, 0.25, n, n + 1), 0);
 }
 
+TEST(Primitives, SplitIntoFourKeepsTheShapeAndTheTopology) {
+  // Midpoint splits are flat: the same surface, with V' = V + E and
+  // F' = 4 F (so χ is kept), closed and oriented as before; the torus
+  // keeps χ = 0. Volume and area sum the same planes in smaller pieces:
+  // equal up to the rounding of the finer sums.
+  const TriangleMesh torus = make_torus(1.0, 0.25, 12, 7), sphere = make_sphere(0.3, 8);
+  for (const TriangleMesh* mesh : {&torus, &sphere}) {
+    const SurfaceReport before = analyze_surface(*mesh);
+    TriangleMesh fine = *mesh;
+    for (int times = 1; times <= 3; ++times) {
+      SCOPED_TRACE(times);
+      const TriangleMesh coarse = fine;
+      const Index v = fine.num_vertices(), f = fine.num_triangles();
+      const Index edges = 3 * f / 2;
+      fine = split_into_four(fine);
+      EXPECT_EQ(fine.num_triangles(), 4 * f);
+      EXPECT_EQ(fine.num_vertices(), v + edges);
+      expect_valid_closed(fine, mesh == &torus ? 0 : 2);
+      const SurfaceReport r = analyze_surface(fine);
+      EXPECT_NEAR(r.volume, before.volume, 1024 * kEps * std::abs(before.volume));
+      EXPECT_NEAR(r.area, before.area, 1024 * kEps * before.area);
+      // The old vertices stay; the middle child's corners are the midpoints
+      // of its parent's edges 01, 12, 20.
+      EXPECT_TRUE(fine.vertices.topRows(v) == coarse.vertices);
+      std::size_t off_midpoint = 0;
+      for (Index t = 0; t < f; ++t)
+        for (int k = 0; k < 3; ++k) {
+          const Eigen::RowVector3d m =
+              0.5 * (coarse.vertices.row(coarse.triangles(t, k)) + coarse.vertices.row(coarse.triangles(t, (k + 1) % 3)));
+          if (fine.vertices.row(fine.triangles(4 * t + 3, k)) != m) ++off_midpoint;
+        }
+      EXPECT_EQ(off_midpoint, 0u);
+    }
+    EXPECT_TRUE(split_into_four(*mesh, 3).vertices == fine.vertices);
+    EXPECT_TRUE(split_into_four(*mesh, 3).triangles == fine.triangles);
+  }
+  // Each of a triangle's four children keeps its orientation: the normals
+  // of a single triangle's children all point along its own.
+  TriangleMesh one;
+  one.vertices.resize(3, 3);
+  one.vertices << 0, 0, 0, 1, 0, 0, 0, 1, 0;
+  one.triangles.resize(1, 3);
+  one.triangles << 0, 1, 2;
+  const TriangleMesh four = split_into_four(one);
+  ASSERT_EQ(four.num_triangles(), 4);
+  for (Index t = 0; t < 4; ++t) {
+    const Eigen::Vector3d a = four.vertices.row(four.triangles(t, 0)), b = four.vertices.row(four.triangles(t, 1)),
+                          c = four.vertices.row(four.triangles(t, 2));
+    EXPECT_DOUBLE_EQ((b - a).cross(c - a).z(), 0.25) << "child " << t;  // a quarter of the area, +z
+  }
+  EXPECT_THROW(split_into_four(one, -1), Error);
+}
+
 TEST(Primitives, BoxIsExactAtEveryResolution) {
   for (const int n : {1, 3, 8}) {
     const SurfaceReport r = analyze_surface(make_box({1.0, 2.0, 3.0}, n));

@@ -110,6 +110,21 @@ TEST(Scene, TransformScalesRotatesThenTranslates) {
   EXPECT_TRUE(test::matrices_near(box.center(), Eigen::Vector3d(1, 2, 3), 1e-12));
 }
 
+TEST(Scene, SurfaceSubdivisionsSplitEveryTriangleIntoFourPerPassBeforeTheTransform) {
+  const std::string object =
+      R"({{"primitive": {{"type": "box", "size": [1, 2, 3], "subdivisions": 2}}, "surface_subdivisions": {},
+          "material": "rigid_brick", "lattice_spacing": 0.5, "transform": {{"scale": 0.5, "translate": [1, 2, 3]}}}})";
+  const Scene coarse = parse(with_object(fmt::format(fmt::runtime(object), 0)));
+  const Scene fine = parse(with_object(fmt::format(fmt::runtime(object), 2)));
+  EXPECT_EQ(coarse.objects[0].surface->num_triangles(), 48);
+  EXPECT_EQ(fine.objects[0].surface->num_triangles(), 16 * 48);
+  // The same placed shape: the box's corners, its volume.
+  const Eigen::AlignedBox3d a = bounding_box(coarse.objects[0].surface->vertices);
+  const Eigen::AlignedBox3d b = bounding_box(fine.objects[0].surface->vertices);
+  EXPECT_TRUE(a.min() == b.min() && a.max() == b.max());
+  EXPECT_NEAR(surface_integrals(*fine.objects[0].surface).volume, 0.75, 1e-13);
+}
+
 TEST(Scene, IntegratorAndItsSettingsAreChosenPerScene) {
   const Scene n = parse(with_object(kCube));
   EXPECT_EQ(n.integrator, IntegratorKind::newmark);
@@ -315,6 +330,13 @@ INSTANTIATE_TEST_SUITE_P(
                  with_object(
                      R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "mesh": "x.off", "material": "rigid_brick", "lattice_spacing": 0.5})"),
                  "/objects/0 needs exactly one of"},
+        BadScene{"too_many_surface_subdivisions",
+                 with_object(
+                     R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "surface_subdivisions": 5, "material": "rigid_brick", "lattice_spacing": 0.5})"),
+                 "/objects/0/surface_subdivisions must be an integer in [0, 4], got 5"},
+        BadScene{"surface_subdivisions_of_a_tet_mesh",
+                 with_object(R"({"tet_mesh": "beam.mesh", "surface_subdivisions": 1, "material": "rigid_brick"})"),
+                 "/objects/0/surface_subdivisions applies to a 'mesh' or 'primitive' surface, not to a 'tet_mesh'"},
         BadScene{"no_spacing", with_object(R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "material": "rigid_brick"})"),
                  "/objects/0 needs the key 'lattice_spacing'"},
         BadScene{"spacing_too_big",
