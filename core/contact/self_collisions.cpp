@@ -219,49 +219,190 @@ bool SelfCollisions::update_edges(const Triangles& triangles) {
   return true;
 }
 
+bool SelfCollisions::list_holds(const Points& xs0, const Points& ds) {
+  // Every vertex, at the start and the end of the step, within its margin
+  // (each coordinate) of its place at the build moved by its cluster's mean
+  // motion since; and every two clusters' mean motions within their
+  // allowance of each other. Both are convex in t and the motions linear
+  // over the step: the two ends are enough.
+  const auto nv = static_cast<Index>(xs0.rows()); const Index nc = clusters_;
+  std::array<Points, 2> mean{Points::Zero(nc, 3), Points::Zero(nc, 3)};
+  for (Index v = 0; v < nv; ++v) {  // in the vertices' order: the same bits on any thread count
+    const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v);
+    mean[0].row(cluster_[at(v)]) += start;
+    mean[1].row(cluster_[at(v)]) += start + ds.row(v);
+  }
+  for (Index c = 0; c < nc; ++c) {
+    mean[0].row(c) /= double(cluster_size_[at(c)]);
+    mean[1].row(c) /= double(cluster_size_[at(c)]);
+  }
+  for (Index v = 0; v < nv; ++v) {
+    const Index c = cluster_[at(v)];
+    const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v) - mean[0].row(c);
+    const Eigen::RowVector3d end = xs0.row(v) + ds.row(v) - list_positions_.row(v) - mean[1].row(c);
+    drift_[at(v)] = std::max(start.cwiseAbs().maxCoeff(), end.cwiseAbs().maxCoeff());
+    if (!(drift_[at(v)] <= margin_[at(v)])) return false;
+  }
+  for (Index a = 0; a < nc; ++a)
+    for (Index b = a + 1; b < nc; ++b) {
+      const double allowed = allowance_[at(a * nc + b)];
+      if (!((mean[0].row(a) - mean[0].row(b)).cwiseAbs().maxCoeff() <= allowed &&
+            (mean[1].row(a) - mean[1].row(b)).cwiseAbs().maxCoeff() <= allowed))
+        return false;
+    }
+  return true;
+}
+
+void SelfCollisions::make_clusters(const Points& xs0) {
+  // Cells of a grid an eighth of the surface's largest extent, doubled
+  // until there are at most kMaxClusters; numbered in the order of their
+  // first vertex.
+  const auto nv = static_cast<Index>(xs0.rows());
+  Box3 all;
+  for (Index v = 0; v < nv; ++v) all.extend(Vec3(xs0.row(v).transpose()));
+  double cell = std::max(all.sizes().maxCoeff() / 8.0, std::numeric_limits<double>::min());
+  cluster_.resize(at(nv));
+  while (true) {
+    std::array<Index, 3> dims{};
+    for (int k = 0; k < 3; ++k) dims[at(k)] = static_cast<Index>(std::floor(all.sizes()[k] / cell)) + 1;
+    std::vector<Index> id(at(dims[0]) * at(dims[1]) * at(dims[2]), -1);
+    Index count = 0;
+    for (Index v = 0; v < nv; ++v) {
+      std::array<Index, 3> c{};
+      for (int k = 0; k < 3; ++k)
+        c[at(k)] = static_cast<Index>(std::clamp(std::floor((xs0(v, k) - all.min()[k]) / cell), 0.0, double(dims[at(k)] - 1)));
+      Index& slot = id[at(c[0] + dims[0] * (c[1] + dims[1] * c[2]))];
+      if (slot < 0) slot = count++;
+      cluster_[at(v)] = slot;
+    }
+    if (count <= kMaxClusters) {
+      clusters_ = count;
+      break;
+    }
+    cell *= 2.0;
+  }
+  cluster_size_.assign(at(clusters_), 0);
+  for (Index v = 0; v < nv; ++v) ++cluster_size_[at(cluster_[at(v)])];
+}
+
+void SelfCollisions::set_frames(const Points& xs0, const Points& ds, double edge_length, double thickness) {
+  const Triangles& tris = triangles_;
+  const auto nv = static_cast<Index>(xs0.rows());
+  const auto nt = static_cast<Index>(tris.rows());
+  for (int attempt = 0;; ++attempt) {
+    const Index nc = clusters_;
+    Points step = Points::Zero(nc, 3);  // each cluster's mean motion over the step
+    for (Index v = 0; v < nv; ++v) step.row(cluster_[at(v)]) += ds.row(v);
+    for (Index c = 0; c < nc; ++c) step.row(c) /= double(cluster_size_[at(c)]);
+    margin_.resize(at(nv));
+    for (Index v = 0; v < nv; ++v) {
+      drift_[at(v)] = (ds.row(v) - step.row(cluster_[at(v)])).cwiseAbs().maxCoeff();
+      margin_[at(v)] = std::max(0.1 * edge_length, 4.0 * drift_[at(v)]);
+    }
+    // Each cluster's hull (the triangles with a corner in it, at the build)
+    // and the largest margin of their corners.
+    std::vector<Box3> hull(at(nc));
+    std::vector<double> largest(at(nc), 0.0);
+    for (Index t = 0; t < nt; ++t) {
+      Box3 box;
+      double m = 0.0;
+      for (int k = 0; k < 3; ++k) {
+        box.extend(Vec3(xs0.row(tris(t, k)).transpose()));
+        m = std::max(m, margin_[at(tris(t, k))]);
+      }
+      for (int k = 0; k < 3; ++k) {
+        const Index c = cluster_[at(tris(t, k))];
+        hull[at(c)].extend(box);
+        largest[at(c)] = std::max(largest[at(c)], m);
+      }
+    }
+    slack_.assign(at(nc), 0.05 * edge_length);
+    for (Index a = 0; a < nc; ++a)
+      for (Index b = a + 1; b < nc; ++b)
+        if (hull[at(a)].intersects(hull[at(b)])) {
+          const double g = 2.0 * (step.row(a) - step.row(b)).cwiseAbs().maxCoeff();
+          slack_[at(a)] = std::max(slack_[at(a)], g);
+          slack_[at(b)] = std::max(slack_[at(b)], g);
+        }
+    // Two clusters may part by g_a + g_b: the boxes are grown by each
+    // vertex's cluster's slack, so pairs left off stay apart. Or, when
+    // their hulls lie far apart, by what keeps any two primitives of theirs
+    // more than the reporting distance apart: a primitive with a corner in a
+    // lies in a's hull, its points move by at most √3 (their corners'
+    // margins and the parting of their clusters), and the clusters of one
+    // primitive's corners share a triangle, so their hulls meet and they
+    // part by at most 2 × the largest slack each. Every two clusters are
+    // allowed at least four times this step's parting (the list lasts
+    // about four steps of the same motion, and this one for sure): where
+    // the far allowance falls short their slacks are raised, which lowers
+    // every far allowance (the largest slack), so this repeats; after a
+    // few rounds the whole surface becomes one cluster (one frame, moving
+    // with its mean, and no parting at all).
+    allowance_.assign(at(nc) * at(nc), 0.0);
+    for (int round = 0; round < kSlackRounds; ++round) {
+      const double most = *std::max_element(slack_.begin(), slack_.end());
+      bool raised = false;
+      for (Index a = 0; a < nc; ++a)
+        for (Index b = a + 1; b < nc; ++b) {
+          const double apart = hull[at(a)].exteriorDistance(hull[at(b)]);
+          const double far = (apart - kReported * thickness) / std::sqrt(3.0) - 4.0 * most - largest[at(a)] - largest[at(b)];
+          double& allowed = allowance_[at(a * nc + b)];
+          allowed = std::max(slack_[at(a)] + slack_[at(b)], far);
+          const double parting = (step.row(a) - step.row(b)).cwiseAbs().maxCoeff();
+          if (!(allowed >= 4.0 * parting)) {
+            slack_[at(a)] = std::max(slack_[at(a)], 2.0 * parting);
+            slack_[at(b)] = std::max(slack_[at(b)], 2.0 * parting);
+            raised = true;
+          }
+        }
+      if (!raised) return;
+    }
+    if (attempt > 0 || nc == 1) return;  // one cluster has no parting
+    std::fill(cluster_.begin(), cluster_.end(), 0);
+    clusters_ = 1;
+    cluster_size_.assign(1, nv);
+  }
+}
+
 bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const Points& d, const Points& xs0,
                                      const Points& ds, double thickness, SelfCollisionStats& stats) {
   const Index nv = body.embedding.num_vertices();
   const Index nt = static_cast<Index>(body.surface_triangles.rows());
   const Triangles& tris = body.surface_triangles;
 
-  // Is the list still good? Every vertex, at the start and the end of the
-  // step, within its margin (each coordinate) of its place at the build,
-  // after the surface's mean translation, which moves every pair alike.
-  const Eigen::RowVector3d mean_step = ds.colwise().mean();
+  // Is the list still good? (list_holds: each vertex near its cluster's
+  // motion, the clusters near each other's.)
   drift_.resize(at(nv));
   if (stars_.update_mesh(body)) list_valid_ = false;
-  if (list_valid_ && list_positions_.rows() == nv && list_parents_ == body.embedding.parent) {
-    const Eigen::RowVector3d shift = (xs0 - list_positions_).colwise().mean();
-    bool holds = true;
-    for (Index v = 0; v < nv && holds; ++v) {
-      const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v) - shift;
-      const Eigen::RowVector3d end = start + ds.row(v) - mean_step;
-      drift_[at(v)] = std::max(start.cwiseAbs().maxCoeff(), end.cwiseAbs().maxCoeff());
-      holds = drift_[at(v)] <= margin_[at(v)];
-    }
-    if (holds) return false;
-  }
-  // A new list. Each vertex gets a margin: a tenth of the mean edge, or
-  // four times this step's displacement relative to the mean, whichever is
-  // more. (Measured on the fine fluid drop's first 16 frames: a quarter
-  // edge and twice the step cost 41 s in this stage; a tenth and twice, 26;
-  // a tenth and four times, 21; a tenth and eight times, 36.)
+  if (list_valid_ && list_positions_.rows() == nv && list_parents_ == body.embedding.parent &&
+      cluster_.size() == at(nv) && list_holds(xs0, ds))
+    return false;
+  // A new list, in frames that move with the surface nearby: the surface's
+  // clusters (make_clusters), each with its mean motion. A vertex gets a
+  // margin: a tenth of the mean edge, or four times this step's motion
+  // relative to its cluster's, whichever is more. (Measured on the fine
+  // fluid drop's first 16 frames, with one frame for the whole surface: a
+  // quarter edge and twice the step cost 41 s in this stage; a tenth and
+  // twice, 26; a tenth and four times, 21; a tenth and eight times, 36.)
+  // A cluster gets a slack g: a twentieth of the mean edge, or twice this
+  // step's largest motion of a cluster whose surface overlaps its own
+  // relative to it, whichever is more; two clusters may part by g_a + g_b.
   double edge_length = 0.0;
   for (const auto& e : edges_) edge_length += (xs0.row(e[0]) - xs0.row(e[1])).norm();
   edge_length /= double(std::max<std::size_t>(1, edges_.size()));
-  margin_.resize(at(nv));
+  make_clusters(xs0);
+  set_frames(xs0, ds, edge_length, thickness);
+  reach_margin_.resize(at(nv));
+  for (Index v = 0; v < nv; ++v) reach_margin_[at(v)] = margin_[at(v)] + slack_[at(cluster_[at(v)])];
   std::vector<Box3>&vb = vertex_boxes_, &tb = triangle_boxes_, &eb = edge_boxes_;
   vb.resize(at(nv));
   tb.resize(at(nt));
   eb.resize(edges_.size());
   for (Index v = 0; v < nv; ++v) {
-    drift_[at(v)] = (ds.row(v) - mean_step).cwiseAbs().maxCoeff();
-    margin_[at(v)] = std::max(0.1 * edge_length, 4.0 * drift_[at(v)]);
     // Grown by half the reporting distance too: boxes that stay apart keep
     // their primitives more than 2δ apart while the list holds.
     vb[at(v)] = grown(Box3(xs0.row(v).transpose(), xs0.row(v).transpose()),
-                      margin_[at(v)] + 0.5 * kReported * thickness);
+                      reach_margin_[at(v)] + 0.5 * kReported * thickness);
   }
   for (Index t = 0; t < nt; ++t) tb[at(t)] = Box3(vb[at(tris(t, 0))]).extend(vb[at(tris(t, 1))]).extend(vb[at(tris(t, 2))]);
   for (std::size_t e = 0; e < edges_.size(); ++e) eb[e] = Box3(vb[at(edges_[e][0])]).extend(vb[at(edges_[e][1])]);
@@ -273,9 +414,10 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const P
   // One broad phase over the triangles: a vertex's box lies in the box of
   // the triangle that owns it (its lowest), an edge's in its owner's, so
   // each primitive pair is found under the pair of its owners, once. A pair
-  // is kept only if it can come within twice the thickness while the list holds:
-  // a point of a primitive moves at most √3 × its vertices' largest margin
-  // from where it was (after the common translation).
+  // is kept only if it can come within twice the thickness while the list
+  // holds: two points of a pair part from where they were by at most √3 ×
+  // (their vertices' largest margins and slacks) (the parting of their
+  // clusters and the vertices' drift from them).
   // Triangles with all three corners in one element share that element as
   // their group: two of one group hold only pairs within it (left out below).
   std::vector<Index> element_of(at(nt));
@@ -381,7 +523,7 @@ bool SelfCollisions::keep_pair(PairKind kind, const std::array<Index, 4>& v, con
                                double& distance) const {
   if (groups_ && within(v) && !groups_->self_pairs[at(group(v))]) return false;  // that body's self-collisions are off
   distance = ccd::closest(kind, gather(xs0, v)).distance;
-  return distance <= kReported * thickness + reach(kind, v, margin_);
+  return distance <= kReported * thickness + reach(kind, v, reach_margin_);
 }
 
 void SelfCollisions::drop_local_pairs() {
@@ -408,7 +550,7 @@ void SelfCollisions::update_orientations(const Body& body, const Points& x0, con
                     });
 }
 
-void SelfCollisions::add_local_pairs(const Body& body, const Points& xs0, double thickness) {
+void SelfCollisions::add_local_pairs(const Body& body, const Points& xs0, const Points& ds, double thickness) {
   const Index ne = body.num_elements();
   const auto& parent = body.embedding.parent;
   if (local_.size() != at(ne)) local_.assign(at(ne), 0);
@@ -434,13 +576,23 @@ void SelfCollisions::add_local_pairs(const Body& body, const Points& xs0, double
     const Index e = parent[at(edges_[i][0])];
     if (slot[at(e)] >= 0 && parent[at(edges_[i][1])] == e) edges[at(slot[at(e)])].push_back(static_cast<Index>(i));
   }
+  // Listed for this step only, measured at its start: a pair whose gap
+  // its own motion over the step cannot close (twice the largest motion of
+  // a vertex relative to its first) is left off.
+  auto keep_local = [&](PairKind kind, const std::array<Index, 4>& v, double& distance) {
+    if (groups_ && within(v) && !groups_->self_pairs[at(group(v))]) return false;
+    distance = ccd::closest(kind, gather(xs0, v)).distance;
+    double moves = 0.0;
+    for (std::size_t k = 1; k < 4; ++k) moves = std::max(moves, (ds.row(v[k]) - ds.row(v[0])).norm());
+    return distance <= kReported * thickness + 2.0 * moves;
+  };
   for (Index k = 0; k < slots; ++k) {
     for (const Index v : vertices[at(k)])
       for (const Index t : triangles[at(k)]) {
         if (tris(t, 0) == v || tris(t, 1) == v || tris(t, 2) == v) continue;
         const std::array<Index, 4> pv{v, tris(t, 0), tris(t, 1), tris(t, 2)};
         double distance = 0.0;
-        if (keep_pair(PairKind::vertex_triangle, pv, xs0, thickness, distance))
+        if (keep_local(PairKind::vertex_triangle, pv, distance))
           candidates_.push_back({static_cast<std::uint8_t>(PairKind::vertex_triangle), pv, distance});
       }
     const auto& own = edges[at(k)];
@@ -450,7 +602,7 @@ void SelfCollisions::add_local_pairs(const Body& body, const Points& xs0, double
         if (a[0] == b[0] || a[0] == b[1] || a[1] == b[0] || a[1] == b[1]) continue;
         const std::array<Index, 4> pv{a[0], a[1], b[0], b[1]};
         double distance = 0.0;
-        if (keep_pair(PairKind::edge_edge, pv, xs0, thickness, distance))
+        if (keep_local(PairKind::edge_edge, pv, distance))
           candidates_.push_back({static_cast<std::uint8_t>(PairKind::edge_edge), pv, distance});
       }
   }
@@ -485,9 +637,12 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
                         // A body turning an inverted element back waits, alone.
                         if (!waiting_.empty() && within(p) && waiting_[at(group(p.vertices))]) continue;
                         // Still as far apart as the build found them, less what the
-                        // vertices have drifted since: beyond twice the thickness all
-                        // step, where continuous detection reports nothing.
-                        if (p.distance - reach(static_cast<PairKind>(p.kind), p.vertices, drift_) > kReported * thickness)
+                        // vertices have drifted since in their cluster's frame (one
+                        // frame for all four): beyond twice the thickness all step,
+                        // where continuous detection reports nothing. (An element's
+                        // own pairs, appended for this step, were measured at its start.)
+                        if (i < list_size_ && same_cluster(p.vertices) &&
+                            p.distance - reach(static_cast<PairKind>(p.kind), p.vertices, drift_) > kReported * thickness)
                           continue;
                         // The same from the pair's own motion: a point of it is
                         // Σ c_k x_k with Σ c_k = 0 and Σ |c_k| = 2 over its vertices,
@@ -628,7 +783,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   find_candidates(body, x0, d, xs0, ds, thickness, stats);
   update_orientations(body, x0, d);
   list_unsafe_groups(body, x0, d, nullptr, thickness);
-  add_local_pairs(body, xs0, thickness);
+  add_local_pairs(body, xs0, ds, thickness);
   stats.listed += static_cast<std::int64_t>(candidates_.size());
   // A new step: every pair is measured at its first detection.
   std::fill(clearance_.begin(), clearance_.end(), -std::numeric_limits<double>::infinity());
@@ -663,7 +818,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
     // moved).
     update_orientations(body, x0, d, rebuilt ? nullptr : moved);
     const bool added = list_unsafe_groups(body, x0, d, rebuilt ? nullptr : moved, thickness);
-    add_local_pairs(body, xs0, thickness);
+    add_local_pairs(body, xs0, ds, thickness);
     return detect(body, xs0, ds, thickness, zone, rebuilt || added ? nullptr : only, stats);
   };
   if (stats.repulsions > 0) impacts = redetect(nullptr, nullptr, nullptr);

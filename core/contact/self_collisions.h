@@ -140,8 +140,25 @@ class SelfCollisions {
   void update_orientations(const Body& body, const Points& x0, const Points& d,
                            const std::vector<std::uint8_t>* moved = nullptr);
   /// Appends the pairs within each element that does not stay positively
-  /// oriented (and has none listed yet): the list leaves them out.
-  void add_local_pairs(const Body& body, const Points& xs0, double thickness);
+  /// oriented (and has none listed yet): the list leaves them out. Measured
+  /// at the step's start xs0, with the surface moving by ds over the step.
+  void add_local_pairs(const Body& body, const Points& xs0, const Points& ds, double thickness);
+  /// Whether the list still holds all the pairs that can come within the
+  /// reporting distance: each vertex within its margin of its cluster's
+  /// motion, and every two clusters within their allowance, at the step's
+  /// start xs0 and end xs0 + ds. Sets drift_.
+  bool list_holds(const Points& xs0, const Points& ds);
+  /// Splits the surface at xs0 into clusters: cluster_, clusters_, cluster_size_.
+  void make_clusters(const Points& xs0);
+  /// The list's margins, slacks and allowances for a build at xs0, the
+  /// surface moving by ds over this step (the triangles those of update_edges).
+  void set_frames(const Points& xs0, const Points& ds, double edge_length, double thickness);
+  /// Whether all four vertices lie in one cluster of the list.
+  [[nodiscard]] bool same_cluster(const std::array<Index, 4>& v) const {
+    const Index c = cluster_[static_cast<std::size_t>(v[0])];
+    return cluster_[static_cast<std::size_t>(v[1])] == c && cluster_[static_cast<std::size_t>(v[2])] == c &&
+           cluster_[static_cast<std::size_t>(v[3])] == c;
+  }
   /// Forgets the pairs add_local_pairs appended.
   void drop_local_pairs();
   /// Impacts among the candidates: pairs that come within the thickness
@@ -201,8 +218,20 @@ class SelfCollisions {
   std::vector<double> changed_;  // per surface vertex, Σ over this step's detections of its displacement's change (max coordinate)
   Points ds_last_;               // the surface displacements of the last detection
   Points list_positions_;       // the surface where the candidate list was built
-  std::vector<double> margin_;  // per vertex, how far it may move before the list is built again
-  std::vector<double> drift_;   // per vertex, how far it has moved since (this step's start and end, the larger)
+  std::vector<double> margin_;  // per vertex, how far it may move from its cluster's motion before the list is built again
+  std::vector<double> drift_;   // per vertex, how far it has moved from its cluster's motion since (this step's start and end, the larger)
+  // The list's frames (docs/embedded-surface.md, "Broad phase"): the surface
+  // at the build split into clusters, cells of a coarse grid. Each vertex
+  // may drift from its cluster's mean motion by its margin, two clusters'
+  // mean motions from each other by their allowance.
+  static constexpr Index kMaxClusters = 256;
+  std::vector<Index> cluster_;        // per vertex
+  std::vector<Index> cluster_size_;   // per cluster, its vertices
+  Index clusters_ = 0;
+  static constexpr int kSlackRounds = 4;
+  std::vector<double> allowance_;     // clusters_ × clusters_ (a < b: [a × clusters_ + b])
+  std::vector<double> slack_;         // per cluster
+  std::vector<double> reach_margin_;  // per vertex: its margin and its cluster's slack (the boxes' growth)
   bool list_valid_ = false;
 };
 

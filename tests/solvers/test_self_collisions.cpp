@@ -98,6 +98,42 @@ TEST(SelfCollisions, NothingChangesWhenNothingApproaches) {
   }
 }
 
+TEST(SelfCollisions, PartsOfOneSurfaceClosingInOnEachOtherRigidlyAreCaughtFromAfar) {
+  // The upper box comes down on the lower one rigidly, 4 mm a step, from
+  // 0.1 m away: every vertex moves exactly with the cluster it lies in, so
+  // only the clusters' parting tells the list that pairs between the boxes
+  // draw near (without that check the list built with the boxes apart
+  // holds, and the boxes pass through each other).
+  const double gap = 0.1, step = 0.004;
+  const Body body = stacked_boxes(gap);
+  Points x = body.positions;
+  const double split = 0.05 + 0.5 * gap;
+  SelfCollisions stage;
+  Index builds_apart = 0, impacts = 0;
+  const int steps_apart = 11, steps = 32;  // touching from step 25 on
+  for (int k = 0; k < steps; ++k) {
+    Points d = Points::Zero(body.num_nodes(), 3);
+    for (Index n = 0; n < body.num_nodes(); ++n)
+      if (body.positions(n, 2) > split) d(n, 2) = -step;
+    const SelfCollisionStats stats = stage.resolve(body, x, d, {}, {1e-4, 0.0, 8});
+    if (k < steps_apart) builds_apart += stats.list_builds;
+    impacts += stats.impacts + stats.zone_nodes;
+    for (const double t : {0.5, 1.0}) ASSERT_EQ(crossings_at(body, x, d, t), 0u) << "step " << k << ", t = " << t;
+    x += d;
+  }
+  EXPECT_GT(impacts, 0);
+  const Points xs = body.embedding.surface_positions(body.tets, x);
+  const Index half = static_cast<Index>(xs.rows() / 2);
+  EXPECT_GE(xs.bottomRows(xs.rows() - half).col(2).minCoeff(), xs.topRows(half).col(2).maxCoeff() - 1e-12);
+  // While the boxes are apart the list built at the first step holds as
+  // long as their hulls' distance allows: (0.1 m − 2δ)/√3 less four slacks
+  // and two margins (a twentieth and a tenth of the mean edge, 2.85 cm)
+  // is 46 mm, so through step 10 (44 mm closer). One frame for the whole
+  // surface moving with its mean would have rebuilt it at steps 4 and 8
+  // (each box drifts 2 mm a step from the mean; its margin is 4× that).
+  EXPECT_EQ(builds_apart, 1);
+}
+
 /// Two lumpy spheres of radius 0.1 m, 0.35 m apart in one body, each spun
 /// about its centre by 40° (about a random axis) and thrown 0.13 m at the
 /// other in one step: they end 0.09 m apart, deep in each other. Rigid
@@ -269,26 +305,27 @@ TEST(StarSpread, NoneForAnAffineMotionAndTheClosedFormOtherwise) {
 
 /// A ball of 0.1 m radius and 4,512 triangles on a 0.04 m lattice (the
 /// nodes inside it have whole stars) and the displacements of a step that
-/// shrinks it by 2 % about its centre.
+/// shrinks it by `by` (2 %) about its centre.
 struct ShrunkBall {
   Body body;
   Points x0, d;
 };
-ShrunkBall shrunk_ball() {
+ShrunkBall shrunk_ball(double by = 0.02) {
   ShrunkBall b{mesh_body(make_sphere(0.1, 48), gel(), 0.04).body, {}, {}};
   b.x0 = b.body.positions;
   const Eigen::RowVector3d centre = b.x0.colwise().mean();
-  b.d = -0.02 * (b.x0.rowwise() - centre);
+  b.d = -by * (b.x0.rowwise() - centre);
   return b;
 }
 
 TEST(SelfCollisions, PairsInACalmStarStayOffTheListUntilItStopsBeingCalm) {
-  // Moved affinely, every star is calm (κ = 0): its group's pairs are off
-  // the list. The next step keeps the list (every vertex within its
-  // margin) but moves every node by up to 3 mm more, so the gradients
-  // across a star differ by up to ~15 % and κρ passes 1: those groups'
-  // pairs are listed (fewer without).
-  ShrunkBall b = shrunk_ball();
+  // Moved affinely (shrunk by 10 %), every star is calm (κ = 0): its
+  // group's pairs are off the list. The next step keeps the list (every
+  // vertex within its margin of its cluster's motion: four times the
+  // shrink's 1 mm or so across a cluster) but moves every node by up to
+  // 3 mm more, so the gradients across a star differ by up to ~15 % and κρ
+  // passes 1: those groups' pairs are listed (fewer without).
+  ShrunkBall b = shrunk_ball(0.1);
   SelfCollisions stage;
   Points d = b.d;
   const SelfCollisionStats calm = stage.resolve(b.body, b.x0, d, {}, {1e-4, 0.0, 8});
