@@ -299,10 +299,12 @@ void SelfCollisions::set_frames(const Points& xs0, const Points& ds, double edge
       drift_[at(v)] = (ds.row(v) - step.row(cluster_[at(v)])).cwiseAbs().maxCoeff();
       margin_[at(v)] = std::max(0.1 * edge_length, 4.0 * drift_[at(v)]);
     }
-    // Each cluster's hull (the triangles with a corner in it, at the build)
-    // and the largest margin of their corners.
+    // Each cluster's hull (the triangles with a corner in it, at the build),
+    // the largest margin of their corners, and which clusters share a
+    // triangle with it.
     std::vector<Box3> hull(at(nc));
     std::vector<double> largest(at(nc), 0.0);
+    std::vector<std::uint8_t> shares(at(nc) * at(nc), 0);
     for (Index t = 0; t < nt; ++t) {
       Box3 box;
       double m = 0.0;
@@ -314,6 +316,7 @@ void SelfCollisions::set_frames(const Points& xs0, const Points& ds, double edge
         const Index c = cluster_[at(tris(t, k))];
         hull[at(c)].extend(box);
         largest[at(c)] = std::max(largest[at(c)], m);
+        for (int j = 0; j < 3; ++j) shares[at(c * nc + cluster_[at(tris(t, j))])] = 1;
       }
     }
     slack_.assign(at(nc), 0.05 * edge_length);
@@ -330,22 +333,27 @@ void SelfCollisions::set_frames(const Points& xs0, const Points& ds, double edge
     // more than the reporting distance apart: a primitive with a corner in a
     // lies in a's hull, its points move by at most √3 (their corners'
     // margins and the parting of their clusters), and the clusters of one
-    // primitive's corners share a triangle, so their hulls meet and they
-    // part by at most 2 × the largest slack each. Every two clusters are
+    // primitive's corners share a triangle with a, so their hulls meet and
+    // they part from a by at most N_a = g_a + the largest slack of a
+    // cluster sharing a triangle with a. Every two clusters are
     // allowed at least four times this step's parting (the list lasts
     // about four steps of the same motion, and this one for sure): where
     // the far allowance falls short their slacks are raised, which lowers
-    // every far allowance (the largest slack), so this repeats; after a
+    // the far allowances of their neighbours' pairs (N), so this repeats; after a
     // few rounds the whole surface becomes one cluster (one frame, moving
     // with its mean, and no parting at all).
     allowance_.assign(at(nc) * at(nc), 0.0);
     for (int round = 0; round < kSlackRounds; ++round) {
-      const double most = *std::max_element(slack_.begin(), slack_.end());
+      std::vector<double> near(at(nc), 0.0);  // N_a
+      for (Index a = 0; a < nc; ++a)
+        for (Index b = 0; b < nc; ++b)
+          if (shares[at(a * nc + b)]) near[at(a)] = std::max(near[at(a)], slack_[at(a)] + slack_[at(b)]);
       bool raised = false;
       for (Index a = 0; a < nc; ++a)
         for (Index b = a + 1; b < nc; ++b) {
           const double apart = hull[at(a)].exteriorDistance(hull[at(b)]);
-          const double far = (apart - kReported * thickness) / std::sqrt(3.0) - 4.0 * most - largest[at(a)] - largest[at(b)];
+          const double far =
+              (apart - kReported * thickness) / std::sqrt(3.0) - near[at(a)] - near[at(b)] - largest[at(a)] - largest[at(b)];
           double& allowed = allowance_[at(a * nc + b)];
           allowed = std::max(slack_[at(a)] + slack_[at(b)], far);
           const double parting = (step.row(a) - step.row(b)).cwiseAbs().maxCoeff();
@@ -523,7 +531,9 @@ bool SelfCollisions::keep_pair(PairKind kind, const std::array<Index, 4>& v, con
                                double& distance) const {
   if (groups_ && within(v) && !groups_->self_pairs[at(group(v))]) return false;  // that body's self-collisions are off
   distance = ccd::closest(kind, gather(xs0, v)).distance;
-  return distance <= kReported * thickness + reach(kind, v, reach_margin_);
+  // A pair within one cluster moves apart only by its vertices' drift from
+  // the cluster's motion; one across clusters by their parting too.
+  return distance <= kReported * thickness + reach(kind, v, same_cluster(v) ? margin_ : reach_margin_);
 }
 
 void SelfCollisions::drop_local_pairs() {
