@@ -181,7 +181,8 @@ CollisionStats SurfaceCollisions::resolve_velocities(const Body& body, Points& v
 }
 
 CollisionStats SurfaceCollisions::resolve_positions(Body& body, const std::vector<Obstacle>& obstacles, double t,
-                                                    const std::vector<std::uint8_t>& fixed, int max_passes) {
+                                                    const std::vector<std::uint8_t>& fixed, int max_passes,
+                                                    std::vector<ElementContact>* contacts) {
   CollisionStats stats;
   if (obstacles.empty() || body.embedding.num_vertices() == 0) return stats;
   std::vector<PlacedShape> placed;
@@ -199,6 +200,7 @@ CollisionStats SurfaceCollisions::resolve_positions(Body& body, const std::vecto
     moved.assign(at(body.num_nodes()), 0);
     ++stats.passes;
     for (const Hit& h : hits) stats.deepest = std::min(stats.deepest, h.contact.distance);
+    std::vector<Eigen::Vector3d> normal(contacts ? hits.size() : 0, Eigen::Vector3d::Zero());
     for (const auto& members : colour(body, hits)) {
       tbb::parallel_for(std::size_t{0}, members.size(), [&](std::size_t m) {
         const Hit& hit = hits[members[m]];
@@ -215,6 +217,7 @@ CollisionStats SurfaceCollisions::resolve_positions(Body& body, const std::vecto
           }
         }
         if (deepest_vertex < 0) return;
+        if (contacts) normal[members[m]] = deepest.normal;
         const Eigen::Vector3d dx = -deepest.distance * deepest.normal;
         const Eigen::Vector4d w = distribution_weights(body, deepest_vertex);
         for (int k = 0; k < 4; ++k) {
@@ -226,6 +229,9 @@ CollisionStats SurfaceCollisions::resolve_positions(Body& body, const std::vecto
       });
     }
     stats.resolved += static_cast<Index>(hits.size());
+    if (contacts)
+      for (std::size_t i = 0; i < hits.size(); ++i)
+        if (normal[i] != Eigen::Vector3d::Zero()) contacts->push_back({hits[i].element, normal[i]});
     again.assign(at(body.num_elements()), 0);
     for (const Hit& h : hits) again[at(h.element)] = 1;
     for (Index n = 0; n < body.num_nodes(); ++n)

@@ -12,6 +12,13 @@
 
 namespace goo {
 
+/// A correction of the position stage: the element whose deepest vertex
+/// was moved, and the obstacle's outward normal there.
+struct ElementContact {
+  Index element;
+  Eigen::Vector3d normal;
+};
+
 struct CollisionStats {
   Index resolved = 0;     ///< element corrections applied, all passes
   int passes = 0;         ///< passes that found something to resolve
@@ -36,8 +43,11 @@ class SurfaceCollisions {
   /// Position stage: the deepest penetrating vertex of each element is moved
   /// onto the obstacle's surface (Δx = −d n, nodes by w_i Δx). Repeats while
   /// corrections of neighbours leave penetrations, at most `max_passes` times.
+  /// With `contacts`, every correction is appended to it (passes in turn,
+  /// each in element order).
   CollisionStats resolve_positions(Body& body, const std::vector<Obstacle>& obstacles, double t,
-                                   const std::vector<std::uint8_t>& fixed, int max_passes = 4);
+                                   const std::vector<std::uint8_t>& fixed, int max_passes = 4,
+                                   std::vector<ElementContact>* contacts = nullptr);
 
  private:
   struct Hit {

@@ -5,7 +5,9 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 #include "core/elastic_forces.h"
@@ -74,6 +76,8 @@ constexpr double kCrushed = 0.1;
 constexpr double kMaxDrift = 0.1;
 /// Projections between two measurements of the surface's volume.
 constexpr int kSurfaceEvery = 8;
+/// Newton iterations of a restore at most.
+constexpr int kRestoreIterations = 3;
 /// Iterations with G at xⁿ before the projection turns to Newton's method.
 constexpr int kChordIterations = 6;
 
@@ -89,6 +93,33 @@ VolumeProjectionStats& VolumeProjectionStats::operator+=(const VolumeProjectionS
 }
 
 VolumeProjection::VolumeProjection(VolumeProjectionSettings settings) : settings_(settings) {}
+
+SlidingNodes SlidingNodes::from_contacts(const Body& body, const std::vector<ElementContact>& contacts) {
+  SlidingNodes s;
+  const Index nn = body.num_nodes();
+  s.sliding.assign(at(nn), 0);
+  s.free.assign(at(nn), Eigen::Matrix3d::Identity());
+  // Gram–Schmidt over each node's normals in the contacts' order (one order
+  // for any thread count); sin 1° below which a normal is in the span.
+  constexpr double kNewDirection = 0.0175;
+  std::vector<std::array<Eigen::Vector3d, 3>> basis(at(nn));
+  for (const ElementContact& c : contacts) {
+    if (!(c.normal.norm() > 0.0)) continue;
+    for (int k = 0; k < 4; ++k) {
+      const Index n = body.tets(c.element, k);
+      std::uint8_t& count = s.sliding[at(n)];
+      if (count == 3) continue;
+      Eigen::Vector3d q = c.normal.normalized();
+      for (std::uint8_t i = 0; i < count; ++i) q -= q.dot(basis[at(n)][i]) * basis[at(n)][i];
+      if (!(q.norm() > kNewDirection)) continue;
+      q.normalize();
+      basis[at(n)][count++] = q;
+      s.free[at(n)] -= q * q.transpose();
+    }
+  }
+  for (std::uint8_t& count : s.sliding) count = count > 0 ? 1 : 0;
+  return s;
+}
 
 void VolumeProjection::weights(const Body& body) {
   // φ_e, the share of element e the material fills (1 for a tet-mesh body):
@@ -141,7 +172,10 @@ void VolumeProjection::transpose_product(const Body& body, const Eigen::VectorXd
 
 void VolumeProjection::move(const Body& body, const Eigen::VectorXd& lambda) {
   transpose_product(body, lambda, direction_);
-  for_each_index(body.num_nodes(), [&](Index n) { direction_.row(n) *= inverse_mass_[n]; });
+  for_each_index(body.num_nodes(), [&](Index n) {
+    if (sliding(n)) direction_.row(n) = (sliding_->free[at(n)] * direction_.row(n).transpose()).transpose();
+    direction_.row(n) *= inverse_mass_[n];
+  });
 }
 
 void VolumeProjection::add_pressure_forces(const Body& body, const Points& x, Points& forces) {
@@ -214,7 +248,7 @@ void VolumeProjection::prepare(const Body& body, const Points& at_positions, con
       for (int k = 0; k < 4; ++k) {
         const Index j = body.tets(e, k);
         const Eigen::Vector3d g = 0.25 * gradient_[at(e)].col(k);
-        scale += g.squaredNorm() * inverse_mass_[j];
+        scale += (sliding(j) ? (sliding_->free[at(j)] * g).squaredNorm() : g.squaredNorm()) * inverse_mass_[j];
         std::size_t slot = 0;
         while (slot < used && local[slot].first != j) ++slot;
         if (slot == used) {
@@ -228,7 +262,11 @@ void VolumeProjection::prepare(const Body& body, const Points& at_positions, con
       }
     }
     double a = 0.0;
-    for (std::size_t k = 0; k < used; ++k) a += local[k].second.squaredNorm() * inverse_mass_[local[k].first];
+    for (std::size_t k = 0; k < used; ++k) {  // |P_j G_ij|² / m_j
+      const Index j = local[k].first;
+      const Eigen::Vector3d g = sliding(j) ? Eigen::Vector3d(sliding_->free[at(j)] * local[k].second) : local[k].second;
+      a += g.squaredNorm() * inverse_mass_[j];
+    }
     if (overflow) a = scale;  // more than 63 neighbours: a bound, still positive
     const bool on = a > 1e-10 * scale && node_rest_[i] > 0.0;
     active_[at(i)] = on ? 1 : 0;
@@ -396,6 +434,64 @@ VolumeProjectionStats VolumeProjection::project(Body& body, const Points& start,
   // the pressure force that later steps apply.
   if (stats.newton_iterations > 0 && span > 0.0) carry(body, total, 1.0 / (dt * span));
   return stats;
+}
+
+VolumeProjectionStats VolumeProjection::restore(Body& body, const std::vector<std::uint8_t>& fixed,
+                                               const SlidingNodes& sliding) {
+  VolumeProjectionStats stats;
+  const Index ne = body.num_elements(), nn = body.num_nodes();
+  if (ne == 0 || any_inverted(body, body.positions)) return stats;
+  sliding_ = &sliding;
+  const double scale = surface_target_scale(body);
+  // Newton's method on the positions (G at each iterate), each solve to a
+  // quarter of the tolerance; as the drift at a projection's start, at most
+  // kMaxDrift of a node's volume a call. An iteration that does not reduce
+  // the error is undone.
+  double last = std::numeric_limits<double>::infinity();
+  for (int iteration = 0; iteration <= kRestoreIterations; ++iteration) {
+    prepare(body, body.positions, fixed);
+    if (scale != 1.0) rest_ *= scale;
+    weighted_volumes(body, body.positions);
+    for (Index e = 0; e < ne; ++e) volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0;
+    quarter_node_sums(body.incidence, volume_, error_);
+    const double error = max_relative(error_, node_rest_, &active_);
+    if (iteration == 0) stats.error_before = error;
+    if (!(error < last)) {
+      if (iteration > 0) body.positions += direction_;
+      break;
+    }
+    stats.error = last = error;
+    if (error <= settings_.tolerance || iteration == kRestoreIterations) break;
+    for (Index n = 0; n < nn; ++n)
+      error_[n] = std::clamp(error_[n], -kMaxDrift * node_rest_[n], kMaxDrift * node_rest_[n]);
+    lambda_ = Eigen::VectorXd::Zero(nn);
+    stats.cg_iterations += solve(body, error_, 0.25 * settings_.tolerance, lambda_);
+    stats.newton_iterations = iteration + 1;
+    if (!lambda_.allFinite()) break;
+    move(body, lambda_);
+    body.positions -= direction_;
+  }
+  sliding_ = nullptr;
+  return stats;
+}
+
+CollisionStats resolve_positions_keeping_volume(Body& body, SurfaceCollisions& collisions, VolumeProjection& projection,
+                                                const std::vector<Obstacle>& obstacles, double t,
+                                                const std::vector<std::uint8_t>& fixed, VolumeProjectionStats& stats,
+                                                double& restore_seconds) {
+  std::vector<ElementContact> contacts;
+  CollisionStats out = collisions.resolve_positions(body, obstacles, t, fixed, 4, &contacts);
+  if (contacts.empty()) return out;
+  const auto start = std::chrono::steady_clock::now();
+  const VolumeProjectionStats restored = projection.restore(body, fixed, SlidingNodes::from_contacts(body, contacts));
+  stats.cg_iterations += restored.cg_iterations;
+  stats.error = std::max(stats.error, restored.error);
+  restore_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const CollisionStats again = collisions.resolve_positions(body, obstacles, t, fixed);
+  out.resolved += again.resolved;
+  out.passes += again.passes;
+  out.deepest = std::min(out.deepest, again.deepest);
+  return out;
 }
 
 VolumeProjectionStats VolumeProjection::project_velocities(Body& body, const std::vector<std::uint8_t>& fixed,

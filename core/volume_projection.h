@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "core/body.h"
+#include "core/collisions.h"
 #include "core/elastic_forces.h"
 #include "core/settings.h"
 #include "core/types.h"
@@ -45,6 +46,19 @@ struct VolumeProjectionStats {
   int waited = 0;             ///< projections skipped while an element was inverted
 
   VolumeProjectionStats& operator+=(const VolumeProjectionStats& o);
+};
+
+/// Nodes held against obstacles: each may move only in the directions its
+/// contacts leave free, P = I − Σ q qᵀ over the orthonormalised outward
+/// normals q of the contacts of its elements (Irving, Schroeder & Fedkiw
+/// 2007 hold collision nodes in the projection; here only along the
+/// normals, so the material slides along the obstacle).
+struct SlidingNodes {
+  std::vector<std::uint8_t> sliding;  ///< per node
+  std::vector<Eigen::Matrix3d> free;  ///< per node, P (the identity where not sliding)
+  /// From the position stage's corrections, in their order: a normal within
+  /// a degree of the span of a node's earlier ones adds nothing.
+  static SlidingNodes from_contacts(const Body& body, const std::vector<ElementContact>& contacts);
 };
 
 class VolumeProjection {
@@ -84,6 +98,14 @@ class VolumeProjection {
   VolumeProjectionStats project(Body& body, const Points& start, const std::vector<std::uint8_t>& fixed, double dt,
                                 double span);
 
+  /// Moves the positions alone so that every node's volume is back within
+  /// the tolerance (at most kMaxDrift of a node's volume a call), G at the
+  /// current positions, the `sliding` nodes along their free directions
+  /// only; velocities and carried pressures unchanged. For the volume the
+  /// obstacles' position corrections take after the projection
+  /// (resolve_positions_keeping_volume).
+  VolumeProjectionStats restore(Body& body, const std::vector<std::uint8_t>& fixed, const SlidingNodes& sliding);
+
   /// The second half of RATTLE (Andersen 1983) for a kick–drift–kick step:
   /// the end-of-step velocities lose their component that changes any nodal
   /// volume, v ← v − M⁻¹ Gᵀ μ / Δt with (G M⁻¹ Gᵀ) μ = Δt G v, G at the
@@ -114,6 +136,12 @@ class VolumeProjection {
   /// The carried pressures += scale × λ (sized to the body first).
   void carry(const Body& body, const Eigen::VectorXd& lambda, double scale);
 
+  /// Whether node n may move along its free directions only (during restore).
+  [[nodiscard]] bool sliding(Index n) const {
+    return sliding_ && static_cast<std::size_t>(n) < sliding_->sliding.size() &&
+           sliding_->sliding[static_cast<std::size_t>(n)];
+  }
+  const SlidingNodes* sliding_ = nullptr;
   VolumeProjectionSettings settings_;
   // Work arrays, kept across steps.
   std::vector<Matrix34> gradient_;  ///< ∂V_e/∂x of each element's four nodes
@@ -130,6 +158,19 @@ class VolumeProjection {
   double discrepancy_ = 0.0;  ///< V_s − Σ φ_e V_e when last measured
   int surface_age_ = 0;       ///< projections since it was
 };
+
+/// The obstacles' position corrections for an incompressible body
+/// (SurfaceCollisions::resolve_positions), and the volume they take given
+/// back in the positions (VolumeProjection::restore) with the nodes they
+/// moved held against the obstacles; then a second pass of corrections for
+/// the few vertices restoring moved into an obstacle. Without it every
+/// step's contacts take volume the next step's projection gives back, and
+/// a body under a press is short of it in every frame (docs/physics.md,
+/// "Incompressible materials"). `restore_seconds` gets the time restoring took.
+CollisionStats resolve_positions_keeping_volume(Body& body, SurfaceCollisions& collisions, VolumeProjection& projection,
+                                                const std::vector<Obstacle>& obstacles, double t,
+                                                const std::vector<std::uint8_t>& fixed, VolumeProjectionStats& stats,
+                                                double& restore_seconds);
 
 /// max_i |V_i(x) − V̄_i| / (¼ Σ_{e∋i} W_e det Fp_e) over the nodes of
 /// `body` (the measure the projection drives below its tolerance).

@@ -346,10 +346,16 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
   times_.forces += timer.lap();
   const double t_next = time_ + dt;
   if (constraints_.ground) enforce_ground(body, *constraints_.ground, fixed_);
-  status.collisions += collisions_.resolve_positions(body, constraints_.obstacles, t_next, fixed_).resolved;
+  double restoring = 0.0;  // incompressible: the volume the contacts take given back at once
+  status.collisions += body.material.incompressible
+                           ? resolve_positions_keeping_volume(body, collisions_, volume_, constraints_.obstacles, t_next,
+                                                              fixed_, status.volume, restoring)
+                                 .resolved
+                           : collisions_.resolve_positions(body, constraints_.obstacles, t_next, fixed_).resolved;
   status.collisions +=
       collisions_.resolve_velocities(body, body.velocities, constraints_.obstacles, t_next, dt, fixed_).resolved;
-  times_.collisions += timer.lap();
+  times_.volume += restoring;
+  times_.collisions += timer.lap() - restoring;
   if (constraints_.self_collisions) {
     SelfCollisionParameters parameters = *constraints_.self_collisions;
     parameters.reference_step = settings_.time_step;  // a halved step responds at half the displacement

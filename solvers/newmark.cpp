@@ -313,8 +313,17 @@ void NewmarkIntegrator::begin_step(Body& body, double dt) {
     tension_.smooth(body, std::min(0.5, settings_.smoothing * body.material.surface_tension * dt));
   times_.surface += timer.lap();
   status.ground_contacts = enforce_ground(body);
-  status.collisions += collisions_.resolve_positions(body, obstacles, t_next, constrained_).resolved;
-  times_.collisions += timer.lap();
+  if (incompressible) {  // the volume the contacts take given back at once
+    double restoring = 0.0;
+    status.collisions += resolve_positions_keeping_volume(body, collisions_, volume_, obstacles, t_next, constrained_,
+                                                          status.volume, restoring)
+                             .resolved;
+    times_.volume += restoring;
+    times_.collisions += timer.lap() - restoring;
+  } else {
+    status.collisions += collisions_.resolve_positions(body, obstacles, t_next, constrained_).resolved;
+    times_.collisions += timer.lap();
+  }
   // The surface against itself over the whole move, obstacles' corrections
   // included; the impulses change v½ too (Bridson et al. 2002).
   if (constraints_.self_collisions) {

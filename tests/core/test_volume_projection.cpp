@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <cmath>
 #include <random>
 
 #include "core/body.h"
@@ -166,6 +167,71 @@ TEST(VolumeProjection, PartlyFilledElementsKeepTheMaterialsVolumeNotTheirWholeOn
   VolumeProjection projection;
   projection.project(body, p.start, {}, 1e-3, 0.0);  // no surface: the targets unscaled
   EXPECT_LE(shares(body.positions), VolumeProjectionSettings{}.tolerance);
+}
+
+TEST(VolumeProjection, SlidingNodesAreFreeAlongTheirContactsOnly) {
+  // Two elements of a box share nodes; one is pressed from above (the
+  // obstacle's outward normal −z), the other from above and the side (+x),
+  // and again from above within half a degree of −z (no new direction).
+  Material m;
+  const Body body = make_body(make_box_tets(Eigen::Vector3d::Constant(0.2), Eigen::Vector3i::Constant(2)), m);
+  const double tilt = 0.5 * M_PI / 180.0;
+  const std::vector<ElementContact> contacts{{0, {0.0, 0.0, -1.0}},
+                                             {1, {1.0, 0.0, 0.0}},
+                                             {1, {std::sin(tilt), 0.0, -std::cos(tilt)}}};
+  const SlidingNodes s = SlidingNodes::from_contacts(body, contacts);
+  const Eigen::Matrix3d z_held = Eigen::Vector3d(1, 1, 0).asDiagonal(), y_only = Eigen::Vector3d(0, 1, 0).asDiagonal();
+  for (Index n = 0; n < body.num_nodes(); ++n) {
+    bool in0 = false, in1 = false;
+    for (int k = 0; k < 4; ++k) in0 = in0 || body.tets(0, k) == n, in1 = in1 || body.tets(1, k) == n;
+    const auto i = static_cast<std::size_t>(n);
+    EXPECT_EQ(s.sliding[i], in0 || in1 ? 1 : 0) << n;
+    const Eigen::Matrix3d expected = in1 ? y_only : in0 ? z_held : Eigen::Matrix3d::Identity();
+    EXPECT_TRUE(test::matrices_near(s.free[i], expected, 1e-15)) << n << "\n" << s.free[i];
+  }
+}
+
+TEST(VolumeProjection, RestoreGivesBackThePressedVolumeAlongThePressInThePositionsAlone) {
+  // The top layer of a box's nodes pushed 2 % of its height down (as a
+  // press's position corrections would): the nodes of the top elements are
+  // held against the press (outward normal −z). Restoring gives every node
+  // its volume back by moving the others: the held ones keep their height,
+  // velocities do not change.
+  Material m;
+  m.incompressible = true;
+  Body body = make_body(make_box_tets(Eigen::Vector3d::Constant(0.2), Eigen::Vector3i::Constant(4)), m);
+  const double top = body.positions.col(2).maxCoeff();
+  for (Index n = 0; n < body.num_nodes(); ++n)
+    if (body.positions(n, 2) == top) body.positions(n, 2) -= 0.02 * 0.2;
+  std::vector<ElementContact> contacts;
+  for (Index e = 0; e < body.num_elements(); ++e)
+    for (int k = 0; k < 4; ++k)
+      if (body.rest_positions(body.tets(e, k), 2) == top) {
+        contacts.push_back({e, {0.0, 0.0, -1.0}});
+        break;
+      }
+  const SlidingNodes sliding = SlidingNodes::from_contacts(body, contacts);
+  const Points before = body.positions, velocities = body.velocities;
+  const double error = max_nodal_volume_error(body, body.positions);
+  EXPECT_GT(error, 0.02) << "the test must start far from the constraint";
+  VolumeProjection projection;
+  const VolumeProjectionStats stats = projection.restore(body, {}, sliding);
+  EXPECT_DOUBLE_EQ(stats.error_before, error);
+  EXPECT_LE(max_nodal_volume_error(body, body.positions), VolumeProjectionSettings{}.tolerance);
+  EXPECT_TRUE(body.velocities == velocities);
+  double moved = 0.0;
+  for (Index n = 0; n < body.num_nodes(); ++n) {
+    moved = std::max(moved, (body.positions.row(n) - before.row(n)).norm());
+    if (sliding.sliding[static_cast<std::size_t>(n)]) {
+      EXPECT_EQ(body.positions(n, 2), before(n, 2)) << n;
+    }
+  }
+  EXPECT_GT(moved, 1e-4) << "the other nodes give the volume back";
+  // Without the contacts the top nodes rise back instead.
+  Body free_body = body;
+  free_body.positions = before;
+  projection.restore(free_body, {}, SlidingNodes{});
+  EXPECT_GT((free_body.positions.col(2) - before.col(2)).maxCoeff(), 1e-4);
 }
 
 TEST(VolumeProjection, BitwiseIdenticalWithOneAndTwoThreads) {
