@@ -76,6 +76,14 @@ constexpr double kCrushed = 0.1;
 constexpr double kMaxDrift = 0.1;
 /// Projections between two measurements of the surface's volume.
 constexpr int kSurfaceEvery = 8;
+/// The contacts' volume is given back at once only where a node is off by
+/// more than this many tolerances; less is left to the next step's drift
+/// correction. (The paper-resolution fluid drop, whose floor takes a little
+/// every step: 176.6 s with every loss given back at once, 150.8 s with
+/// ten tolerances, 154.8 s without giving any back; its lowest frame's
+/// volume 1.0000, 0.9998 and 0.9980. The bunny press's frames 25–40: 82.6,
+/// 74.9 and 70.9 s; 1.0000, 0.9999 and 0.9826.)
+constexpr double kRestoreFrom = 10.0;
 /// Newton iterations of a restore at most.
 constexpr int kRestoreIterations = 3;
 /// Iterations with G at xⁿ before the projection turns to Newton's method.
@@ -437,7 +445,7 @@ VolumeProjectionStats VolumeProjection::project(Body& body, const Points& start,
 }
 
 VolumeProjectionStats VolumeProjection::restore(Body& body, const std::vector<std::uint8_t>& fixed,
-                                               const SlidingNodes& sliding) {
+                                               const SlidingNodes& sliding, double from) {
   VolumeProjectionStats stats;
   const Index ne = body.num_elements(), nn = body.num_nodes();
   if (ne == 0 || any_inverted(body, body.positions)) return stats;
@@ -455,7 +463,10 @@ VolumeProjectionStats VolumeProjection::restore(Body& body, const std::vector<st
     for (Index e = 0; e < ne; ++e) volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0;
     quarter_node_sums(body.incidence, volume_, error_);
     const double error = max_relative(error_, node_rest_, &active_);
-    if (iteration == 0) stats.error_before = error;
+    if (iteration == 0) {
+      stats.error_before = stats.error = error;
+      if (!(error > from)) break;  // left to the next step's drift correction
+    }
     if (!(error < last)) {
       if (iteration > 0) body.positions += direction_;
       break;
@@ -483,10 +494,12 @@ CollisionStats resolve_positions_keeping_volume(Body& body, SurfaceCollisions& c
   CollisionStats out = collisions.resolve_positions(body, obstacles, t, fixed, 4, &contacts);
   if (contacts.empty()) return out;
   const auto start = std::chrono::steady_clock::now();
-  const VolumeProjectionStats restored = projection.restore(body, fixed, SlidingNodes::from_contacts(body, contacts));
+  const VolumeProjectionStats restored =
+      projection.restore(body, fixed, SlidingNodes::from_contacts(body, contacts), kRestoreFrom * projection.tolerance());
+  restore_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (restored.newton_iterations == 0) return out;  // nothing moved
   stats.cg_iterations += restored.cg_iterations;
   stats.error = std::max(stats.error, restored.error);
-  restore_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const CollisionStats again = collisions.resolve_positions(body, obstacles, t, fixed);
   out.resolved += again.resolved;
   out.passes += again.passes;

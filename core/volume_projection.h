@@ -104,7 +104,11 @@ class VolumeProjection {
   /// only; velocities and carried pressures unchanged. For the volume the
   /// obstacles' position corrections take after the projection
   /// (resolve_positions_keeping_volume).
-  VolumeProjectionStats restore(Body& body, const std::vector<std::uint8_t>& fixed, const SlidingNodes& sliding);
+  /// Only when some node is off by more than `from` (relative, as the
+  /// tolerance); nothing moves otherwise.
+  VolumeProjectionStats restore(Body& body, const std::vector<std::uint8_t>& fixed, const SlidingNodes& sliding,
+                                double from = 0.0);
+  [[nodiscard]] double tolerance() const { return settings_.tolerance; }
 
   /// The second half of RATTLE (Andersen 1983) for a kick–drift–kick step:
   /// the end-of-step velocities lose their component that changes any nodal

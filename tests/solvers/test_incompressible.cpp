@@ -211,13 +211,14 @@ TEST(Incompressible, TheContactsGiveBackTheVolumeTheyTakeInTheSameStep) {
   // The squeezed ball with Newmark and with backward Euler, frame by frame
   // as it is written: the position corrections at the press and the floor
   // take volume, which the same step gives back with the nodes they moved
-  // held against the obstacles. Every node's share of the material is then
-  // within the tolerance (10⁻⁴) after every step, and the surface's volume
-  // follows the material's up to their difference, measured again every
-  // few steps: within ten times the tolerance (measured: 0.99993 lowest
-  // with Newmark, 0.99930 with backward Euler; without giving the volume
-  // back, 0.99821 and 0.93537 at frame 9). No surface vertex is left inside
-  // the press or the floor.
+  // held against the obstacles wherever a node is off by more than ten
+  // tolerances (10⁻⁴ each). Every node's share of the material is then
+  // within ten tolerances after every step, so the material's volume too,
+  // and the surface's volume follows the material's up to their
+  // difference, measured again every few steps: within ten tolerances
+  // (measured: 0.99993 lowest with Newmark, 0.99930 with backward Euler;
+  // without giving the volume back, 0.99821 and 0.93537 at frame 9). No
+  // surface vertex is left inside the press or the floor.
   const double tolerance = VolumeProjectionSettings{}.tolerance;
   for (const std::string integrator : {R"({"type": "newmark"})", R"({"type": "backward_euler", "time_step": 0.002})"}) {
     Simulation sim(io::parse_scene(pressed_ball(integrator), "press.json", "."));
