@@ -25,6 +25,28 @@ constexpr int kExitInternal = 1;
 constexpr int kExitBadInput = 2;
 constexpr int kExitWriteFailure = goo::app::kExitWriteFailure;
 
+/// goo render's options (docs/rendering.md).
+CLI::App* add_render_command(CLI::App& app, goo::app::RenderOptions& render_options) {
+  CLI::App* render = app.add_subcommand(
+      "render", "Pictures of a run's frames: a contact sheet (default), one per frame, or a turntable (docs/rendering.md)");
+  render->add_option("RUN", render_options.run, "A run's output folder")->required();
+  render->add_option("--out", render_options.out, "Folder for the pictures (default: RUN/render)");
+  render->add_option("--scene", render_options.scene, "The run's scene (default: the one RUN/summary.json names)");
+  render->add_option("--sheet", render_options.sheet, "Frames on the contact sheet (default 12)");
+  render->add_flag("--each", render_options.each, "One picture per frame (frame_NNNNN.png)");
+  render->add_option("--turntable", render_options.turntable, "Views all around this frame (turntable_NNNNN/)");
+  render->add_option("--views", render_options.views, "Views of a turntable (default 36)");
+  render->add_option("--first", render_options.first, "First frame considered");
+  render->add_option("--last", render_options.last, "Last frame considered");
+  render->add_option("--size", render_options.size, "WIDTHxHEIGHT of each picture (default 960x720; 480x360 on a sheet)");
+  render->add_option("--azimuth", render_options.azimuth, "Degrees about the vertical the camera looks from (default -30)");
+  render->add_option("--elevation", render_options.elevation, "Degrees above the horizon the camera looks from (default 25)");
+  render->add_flag("--wireframe", render_options.wireframe, "Draw the tet mesh's edges (needs output.tet_mesh)");
+  render->add_flag("--mp4", render_options.mp4, "Also encode the pictures as an MP4 (needs ffmpeg)");
+  render->add_flag("--quiet", render_options.quiet, "No progress, only errors");
+  return render;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -59,23 +81,7 @@ int main(int argc, char** argv) {
   run->add_flag("--preview", run_options.preview, "Write a contact sheet of the frames when the run ends (render/sheet.png)");
 
   goo::app::RenderOptions render_options;
-  CLI::App* render = app.add_subcommand(
-      "render", "Pictures of a run's frames: a contact sheet (default), one per frame, or a turntable (docs/rendering.md)");
-  render->add_option("RUN", render_options.run, "A run's output folder")->required();
-  render->add_option("--out", render_options.out, "Folder for the pictures (default: RUN/render)");
-  render->add_option("--scene", render_options.scene, "The run's scene (default: the one RUN/summary.json names)");
-  render->add_option("--sheet", render_options.sheet, "Frames on the contact sheet (default 12)");
-  render->add_flag("--each", render_options.each, "One picture per frame (frame_NNNNN.png)");
-  render->add_option("--turntable", render_options.turntable, "Views all around this frame (turntable_NNNNN/)");
-  render->add_option("--views", render_options.views, "Views of a turntable (default 36)");
-  render->add_option("--first", render_options.first, "First frame considered");
-  render->add_option("--last", render_options.last, "Last frame considered");
-  render->add_option("--size", render_options.size, "WIDTHxHEIGHT of each picture (default 960x720; 480x360 on a sheet)");
-  render->add_option("--azimuth", render_options.azimuth, "Degrees about the vertical the camera looks from (default -30)");
-  render->add_option("--elevation", render_options.elevation, "Degrees above the horizon the camera looks from (default 25)");
-  render->add_flag("--wireframe", render_options.wireframe, "Draw the tet mesh's edges (needs output.tet_mesh)");
-  render->add_flag("--mp4", render_options.mp4, "Also encode the pictures as an MP4 (needs ffmpeg)");
-  render->add_flag("--quiet", render_options.quiet, "No progress, only errors");
+  CLI::App* render = add_render_command(app, render_options);
   goo::log();                      // create the logger, then let SPDLOG_LEVEL=debug (say) change its level
   spdlog::cfg::load_env_levels();
   try {

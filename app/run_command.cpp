@@ -333,20 +333,25 @@ bool no_external_force(const Scene& scene) {
   return true;
 }
 
-}  // namespace
-
-int run_scene(const RunOptions& options) {
-  const auto wall_start = Clock::now();
-  // Signals are caught from the start: one during setup stops the run after
-  // frame 0, with its checkpoint and summary (exit 130), like any other.
-  SignalGuard signals;
-  // 1. Everything that can be refused is read and checked before anything is written.
-  std::optional<StateRecord> resumed;
+/// What a run starts from, read and checked before anything is written.
+struct RunPlan {
   Scene scene;
+  std::optional<StateRecord> resumed;  ///< the checkpoint, when resuming
+  std::optional<fs::path> own_folder;  ///< a resumed run's own folder
+  fs::path folder;
+  int last_frame = 0;
+};
+
+/// The scene (from its file, the checkpoint or the demo), the frames and the
+/// folder: everything that can be refused, before anything is written.
+RunPlan plan_run(const RunOptions& options) {
+  RunPlan plan;
+  Scene& scene = plan.scene;
   if (options.resume) {
-    resumed = io::read_checkpoint(*options.resume);
+    plan.resumed = io::read_checkpoint(*options.resume);
+    const StateRecord& resumed = *plan.resumed;
     const std::string& text = reading_checkpoint(*options.resume, "", [&]() -> const std::string& {
-      return resumed->string("scene/text");
+      return resumed.string("scene/text");
     });
     if (options.scene) io::require_regular_file(*options.scene, "the scene file");
     if (options.scene && slurp(*options.scene) != text)
@@ -356,52 +361,368 @@ int run_scene(const RunOptions& options) {
     // The bodies come from the checkpoint and the obstacles' meshes too: a
     // run resumes without the files it began from.
     const std::map<std::string, TriangleMesh> obstacle_meshes =
-        reading_checkpoint(*options.resume, "", [&] { return stored_obstacle_meshes(*resumed); });
+        reading_checkpoint(*options.resume, "", [&] { return stored_obstacle_meshes(resumed); });
     io::SceneInputs inputs;
     inputs.objects_from_checkpoint = true;
     inputs.obstacle_meshes = &obstacle_meshes;
     scene = reading_checkpoint(*options.resume, "its scene: ", [&] {
-      return io::parse_scene(text, resumed->string("scene/source"), resumed->string("scene/base_folder"), inputs);
+      return io::parse_scene(text, resumed.string("scene/source"), resumed.string("scene/base_folder"), inputs);
     });
   } else if (options.scene) {
     scene = io::read_scene(*options.scene);
   } else {
     scene = io::demo_scene();
   }
-  const int last_frame = options.frames.value_or(scene.output.frames);
-  if (last_frame < 0) throw Error(fmt::format("--frames must be non-negative, got {}", last_frame));
+  plan.last_frame = options.frames.value_or(scene.output.frames);
+  if (plan.last_frame < 0) throw Error(fmt::format("--frames must be non-negative, got {}", plan.last_frame));
   if (options.out && options.out->empty()) throw Error("--out must name a folder, got an empty path");
   // A resumed run goes on in its own folder (the checkpoint's
   // RUN/checkpoints/frame_NNNNN.h5), not in the scene's folder relative to
   // wherever goo is started.
-  const std::optional<fs::path> own_folder =
-      options.resume ? std::optional<fs::path>(run_folder_of(*options.resume)) : std::nullopt;
-  if (options.resume && !options.out && !own_folder)
+  if (options.resume) plan.own_folder = run_folder_of(*options.resume);
+  if (options.resume && !options.out && !plan.own_folder)
     throw Error(fmt::format("{}: is not in a run's checkpoints/ folder; give the folder to go on in with --out",
                             *options.resume));
-  const fs::path folder = options.out ? fs::path(*options.out) : own_folder ? *own_folder : fs::path(scene.output.folder);
+  plan.folder = options.out ? fs::path(*options.out) : plan.own_folder ? *plan.own_folder : fs::path(scene.output.folder);
   if (options.threads < 0) throw Error(fmt::format("--threads must be positive, got {}", options.threads));
-  std::unique_ptr<tbb::global_control> threads;
-  if (options.threads > 0)
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                    static_cast<std::size_t>(options.threads));
-  set_linear_algebra_threads(1);
+  return plan;
+}
 
+/// Another run's output is never replaced unless asked: a new run into a
+/// folder holding one, or a run resumed into a folder other than its own.
+void claim_folder(const RunOptions& options, const RunPlan& plan) {
+  const fs::path& folder = plan.folder;
   std::error_code ec;
   if (fs::exists(folder, ec) && !fs::is_directory(folder, ec))
     throw Error(fmt::format("{}: --out must be a folder", folder.string()));
-  // Another run's output is never replaced unless asked: a new run into a
-  // folder holding one, or a run resumed into a folder other than its own.
-  const bool its_own = own_folder && fs::exists(folder, ec) && fs::equivalent(folder, *own_folder, ec);
+  const bool its_own = plan.own_folder && fs::exists(folder, ec) && fs::equivalent(folder, *plan.own_folder, ec);
   if (holds_a_run(folder) && !its_own && !options.overwrite)
     throw Error(fmt::format("{}: holds {}; pass --overwrite to replace it, --resume with one of its checkpoints to "
                             "continue it, or choose another --out",
                             folder.string(), options.resume ? "another run" : "an earlier run"));
   if (holds_a_run(folder) && !its_own && options.overwrite) remove_run(folder);
+}
+
+/// The frame a resumed run goes on from and the totals its first frame had,
+/// from the checkpoint; values no run writes are refused, naming the field
+/// (a frame number names files, and the clock is the frame's).
+int resumed_frame(const fs::path& checkpoint, const StateRecord& resumed, const Scene& scene, const Simulation& sim,
+                  int last_frame, SimulationTotals& initial) {
+  const SimulationTotals loaded = sim.totals();  // the meshes the run goes on from
+  initial.nodes = loaded.nodes, initial.elements = loaded.elements;
+  initial.surface_vertices = loaded.surface_vertices, initial.surface_triangles = loaded.surface_triangles;
+  const std::int64_t stored_frame = resumed.integer("run/frame");
+  if (stored_frame < 0 || stored_frame > 99999)
+    throw Error(fmt::format("{}: run/frame is {}, not a frame number (0 to 99999)", checkpoint.string(), stored_frame));
+  const int frame = static_cast<int>(stored_frame);
+  if (const double expected = frame / scene.output.fps; !(std::abs(sim.time() - expected) <= 1e-9 * std::max(1.0, expected)))
+    throw Error(fmt::format("{}: time is {} s, but frame {} at {} fps is at {} s", checkpoint.string(), sim.time(),
+                            frame, scene.output.fps, expected));
+  initial.mass = resumed.real("run/initial_mass");
+  initial.volume = resumed.real("run/initial_volume");
+  const Eigen::MatrixXd momentum = resumed.matrix("run/initial_momentum", 3);
+  if (momentum.rows() != 1)
+    throw Error(fmt::format("run/initial_momentum must be one row of 3 values, got {} rows", momentum.rows()));
+  initial.momentum = momentum.row(0).transpose();
+  if (!(std::isfinite(initial.mass) && initial.mass > 0.0 && std::isfinite(initial.volume) && initial.volume > 0.0 &&
+        initial.momentum.allFinite()))
+    throw Error(fmt::format("{}: run/initial_mass, run/initial_volume or run/initial_momentum is not a body's "
+                            "(non-positive or not finite)",
+                            checkpoint.string()));
+  if (frame > last_frame)
+    throw Error(fmt::format("{}: the checkpoint is at frame {}, past the last frame {} asked for", checkpoint.string(),
+                            frame, last_frame));
+  return frame;
+}
+
+/// One run from its first frame to its last: the frame loop, the frames and
+/// checkpoints it writes, and the report it keeps for summary.json.
+class Run {
+ public:
+  Run(const RunOptions& options, const Scene& scene, Simulation& sim, const fs::path& folder, int frame,
+      int last_frame, const SimulationTotals& initial)
+      : options_(options), scene_(scene), sim_(sim), folder_(folder), frame_(frame), first_frame_(frame),
+        last_frame_(last_frame), initial_(initial), outputs_{folder, &scene.output, nullptr, 0.0, 0.0, {}},
+        progress_(options.quiet, frame, last_frame) {}
+
+  /// The output folder, run.h5, and frame 0 unless resuming.
+  void open(bool resuming) {
+    std::error_code ec;
+    fs::create_directories(folder_ / "frames", ec);
+    if (!ec) fs::create_directories(folder_ / "checkpoints", ec);
+    if (ec) throw WriteError(fmt::format("{}: cannot create the output folder: {}", folder_.string(), ec.message()));
+    if (scene_.output.hdf5) outputs_.run_file = std::make_unique<io::RunFile>(folder_, resuming ? frame_ + 1 : 0);
+    if (!options_.quiet) {
+      const SimulationTotals t = sim_.totals();
+      log().info("{}: {} objects, {} elements, {} surface triangles, {} integrator, frames {} to {} at {} fps into {}",
+                 scene_.source, scene_.objects.size(), t.elements, t.surface_triangles, to_string(scene_.integrator),
+                 frame_, last_frame_, scene_.output.fps, folder_.string());
+    }
+    if (!resuming) written([&] { outputs_.write_frame(0, sim_); });
+    // Frame 0's surface (a resumed run wrote it before).
+    initial_surface_ = resuming ? nlohmann::json(nullptr) : to_json(outputs_.quality);
+  }
+
+  /// 3. Frames. Each frame boundary is a restart point, so a checkpoint
+  /// taken there resumes bitwise identically. A first SIGINT or SIGTERM
+  /// finishes the frame under way, writes it and its checkpoint, and exits
+  /// with 130; a second stops at once, keeping the checkpoints already
+  /// written. (Holding a copy of the last frame's state instead, to write
+  /// when a signal comes, cost 430 bytes per tet: 40% of the Newmark path's
+  /// memory.)
+  void frames() {
+    progress_.set_steps0(sim_.steps());
+    begin_frame_record();
+    while (exit_code_ == 0) {
+      sim_.make_restart_point();
+      if (frame_ >= last_frame_) break;
+      if (g_signals > 0) {  // a whole frame after the signal: its checkpoint is written below
+        if (!told_) log().warn("signal {} during setup: stopping after frame {}", static_cast<int>(g_signal), frame_);
+        end("interrupted", kExitInterrupted);
+        break;
+      }
+      const int every = scene_.checkpoint_every_frames;
+      if (every > 0 && frame_ > first_frame_ && frame_ % every == 0 && !written([&] { write_checkpoint(frame_); }))
+        break;
+      if (!advance()) break;
+      ++frame_;
+      const double output_before = outputs_.seconds, quality_before = outputs_.quality_seconds;
+      if (!written([&] { outputs_.write_frame(frame_, sim_); })) {
+        --frame_;  // the last frame written whole
+        progress_.finish();
+        break;
+      }
+      per_frame_.push_back(frame_record(output_before, quality_before));
+      progress_.update(frame_, sim_.time(), sim_.steps(), sim_.remeshes(), frame_ == last_frame_);
+    }
+    stepping_peak_bytes_ = peak_memory_bytes();  // before the final checkpoint
+    if (exit_code_ == 0 || (exit_code_ == kExitInterrupted && g_signals == 1 && !stopped_in_frame_)) {
+      progress_.finish();
+      if (exit_code_ == kExitInterrupted) log().warn("interrupted: writing the checkpoint of frame {}", frame_);
+      written([&] { write_checkpoint(frame_); });  // the run's end, or the frame finished after a signal
+    }
+  }
+
+  /// 4. The summary (summary.json, docs/running.md); returns the exit code.
+  int report(Clock::time_point wall_start, long long setup_peak_bytes) {
+    const std::string text = summary(wall_start, setup_peak_bytes).dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+    try {  // file names (the scene's, the bodies') need not be UTF-8: such bytes became U+FFFD
+      io::write_file_atomically(folder_ / "summary.json", [&](std::ostream& out) { out << text; });
+    } catch (const WriteError& e) {
+      log().error("no summary: {}", e.what());
+      if (exit_code_ == 0) exit_code_ = kExitWriteFailure;
+    }
+    if (!options_.quiet && exit_code_ == 0)
+      log().info("{} frames, {} steps, {} re-meshes in {:.1f} s; volume {:.6g} → {:.6g} m³; summary in {}", frame_,
+                 sim_.steps(), sim_.remeshes(), seconds_since(wall_start), initial_.volume, sim_.totals().volume,
+                 (folder_ / "summary.json").string());
+    return exit_code_;
+  }
+
+ private:
+  void end(const char* status, int exit_code) {
+    status_ = status;
+    exit_code_ = exit_code;
+  }
+
+  /// A file that cannot be written (the disk full, a quota or size limit,
+  /// the folder removed) ends the run: the files written before stay, and
+  /// the summary says why (if it can still be written).
+  bool written(const std::function<void()>& write) {
+    try {
+      write();
+      return true;
+    } catch (const WriteError& e) {
+      failure_ = fmt::format("cannot write the output: {}", e.what());
+      log().error("{}", failure_);
+      log().error("the frames and checkpoints written before are kept in {}", folder_.string());
+      end("failed", kExitWriteFailure);
+      return false;
+    }
+  }
+
+  /// Each array goes to the file as the simulation hands it over: a second
+  /// copy of the whole state would be the run's peak of memory.
+  void write_checkpoint(int f) {
+    const auto start = Clock::now();
+    io::CheckpointWriter writer(folder_ / "checkpoints" / fmt::format("frame_{:05d}.h5", f));
+    sim_.save(writer);
+    add_run_fields(writer, scene_, f, initial_);
+    writer.commit();
+    checkpoint_seconds_ += seconds_since(start);
+  }
+
+  /// Whether a signal stops the frame under way: a second one, or a first
+  /// one whose frame has not ended within kSignalGrace (a huge frame time or
+  /// a tiny time step must not hold a signalled run forever).
+  bool stop_now() {
+    if (g_signals == 1 && !told_) {
+      told_ = true;
+      signalled_ = Clock::now();
+      progress_.finish();
+      log().warn("signal {}: finishing frame {}, then writing its checkpoint (another signal stops at once; so "
+                 "does a frame not finished within {:.0f} s)",
+                 static_cast<int>(g_signal), frame_ + 1, kSignalGrace);
+    }
+    return g_signals >= 2 || (told_ && seconds_since(signalled_) > kSignalGrace);
+  }
+
+  /// Steps to the next frame's time; false when the run ends there.
+  bool advance() {
+    bool completed = false;
+    try {
+      completed = sim_.advance_to((frame_ + 1) / scene_.output.fps, [this] { return stop_now(); });
+    } catch (const std::exception& e) {
+      // The input passed every check before the first step: what fails
+      // while stepping (a NaN, a runaway node, a time step that underflows
+      // to zero) is a numerical failure, diagnosed, with the summary written.
+      const bool diagnosed = dynamic_cast<const NumericalFailure*>(&e) != nullptr;
+      if (!diagnosed && dynamic_cast<const Error*>(&e) == nullptr) throw;  // a bug: exit 1
+      progress_.finish();
+      failure_ = diagnosed ? e.what()
+                           : fmt::format("numerical failure in frame {} (t = {:.6g} s): {}", frame_ + 1, sim_.time(), e.what());
+      log().error("{}", failure_);
+      log().error("the last good checkpoint is kept in {}", (folder_ / "checkpoints").string());
+      end("failed", kExitNumericalFailure);
+      return false;
+    }
+    if (!completed) {
+      stopped_in_frame_ = true;
+      progress_.finish();
+      log().warn("{}: stopping now, in frame {}; the checkpoints already written are kept",
+                 g_signals >= 2 ? "a second signal" : "the frame did not finish in time", frame_ + 1);
+      end("interrupted", kExitInterrupted);
+    }
+    return completed;
+  }
+
+  void begin_frame_record() {
+    stages_before_ = sim_.stage_times();
+    steps_before_ = sim_.steps();
+    self_before_ = sim_.self_collision_totals();
+  }
+
+  /// Per frame (the profile of docs/benchmarks.md): the wall time of each
+  /// stage spent on it, and the mesh sizes at its end.
+  nlohmann::json frame_record(double output_before, double quality_before) {
+    const StageTimes& st = sim_.stage_times();
+    const SimulationTotals t = sim_.totals();
+    nlohmann::json r = {{"frame", frame_},
+                        {"time", sim_.time()},
+                        {"steps", sim_.steps() - steps_before_},
+                        {"remeshes", sim_.remeshes()},
+                        {"elements", t.elements},
+                        {"surface_triangles", t.surface_triangles},
+                        {"stages",
+                         {{"integrate", st.integrate - stages_before_.integrate},
+                          {"remesh_check", st.remesh_check - stages_before_.remesh_check},
+                          {"remesh", st.remesh - stages_before_.remesh},
+                          {"safety_checks", st.safety - stages_before_.safety},
+                          {"frames_output", outputs_.seconds - output_before},
+                          {"surface_quality", outputs_.quality_seconds - quality_before}}},
+                        {"surface", to_json(outputs_.quality)},
+                        {"self_collisions", to_json(sim_.self_collision_totals(), self_before_)},
+                        {"volume_projection", to_json(sim_.take_frame_volume_stats())},
+                        {"damping_solve", to_json(sim_.take_frame_damping_stats())},
+                        {"integrate_stages", step_stages(st.step, stages_before_.step)},
+                        {"remesh_stages", remesh_stages(st.remesh_stages, stages_before_.remesh_stages)}};
+    begin_frame_record();
+    return r;
+  }
+
+  nlohmann::json summary(Clock::time_point wall_start, long long setup_peak_bytes) const {
+    const SimulationTotals now = sim_.totals();
+    const StageTimes& st = sim_.stage_times();
+    nlohmann::json j;
+    j["status"] = status_;
+    if (!failure_.empty()) j["failure"] = failure_;
+    {
+      // Where the scene is, from anywhere (goo render finds it there).
+      std::error_code absolute_error;
+      const bool file = fs::is_regular_file(scene_.source, absolute_error);
+      j["scene"] = file ? fs::absolute(scene_.source, absolute_error).lexically_normal().string() : scene_.source;
+    }
+    j["integrator"] = std::string(to_string(scene_.integrator));
+    j["frames"] = frame_;
+    j["fps"] = scene_.output.fps;
+    j["simulated_seconds"] = sim_.time();
+    j["wall_seconds"] = seconds_since(wall_start);
+    j["stages"] = {{"integrate", st.integrate},       {"remesh_check", st.remesh_check}, {"remesh", st.remesh},
+                   {"safety_checks", st.safety},       {"frames_output", outputs_.seconds},
+                   {"surface_quality", outputs_.quality_seconds}, {"checkpoints", checkpoint_seconds_}};
+    j["integrate_stages"] = step_stages(st.step, StepTimes{});
+    j["remesh_stages"] = remesh_stages(st.remesh_stages, RemeshTimes{});
+    j["steps"] = sim_.steps();
+    j["remeshes"] = sim_.remeshes();
+    j["nodes"] = now.nodes;
+    j["elements"] = now.elements;
+    j["surface_vertices"] = now.surface_vertices;
+    j["surface_triangles"] = now.surface_triangles;
+    j["initial_elements"] = initial_.elements;
+    j["initial_surface_triangles"] = initial_.surface_triangles;
+    j["initial_mass"] = initial_.mass;
+    j["total_mass"] = now.mass;
+    j["initial_volume"] = initial_.volume;
+    j["final_volume"] = now.volume;
+    j["linear_momentum"] = {now.momentum.x(), now.momentum.y(), now.momentum.z()};
+    if (no_external_force(scene_)) {
+      j["momentum_drift"] = (now.momentum - initial_.momentum).norm();
+    } else {
+      j["momentum_drift"] = nullptr;  // gravity, the ground, obstacles or pins act on the bodies
+    }
+    j["threads"] = options_.threads;
+    j["peak_memory_bytes"] = peak_memory_bytes();
+    j["setup_peak_memory_bytes"] = setup_peak_bytes;
+    j["stepping_peak_memory_bytes"] = stepping_peak_bytes_;
+    j["initial_surface"] = initial_surface_;
+    j["self_collisions"] = to_json(sim_.self_collision_totals(), SelfCollisionStats{});
+    j["volume_projection"] = to_json(sim_.volume_totals());
+    j["damping_solve"] = to_json(sim_.damping_totals());
+    j["per_frame"] = per_frame_;
+    return j;
+  }
+
+  const RunOptions& options_;
+  const Scene& scene_;
+  Simulation& sim_;
+  fs::path folder_;
+  int frame_, first_frame_, last_frame_;
+  SimulationTotals initial_;
+  Outputs outputs_;
+  Progress progress_;
+  std::string status_ = "completed", failure_;
+  int exit_code_ = 0;
+  double checkpoint_seconds_ = 0.0;
+  long long stepping_peak_bytes_ = 0;
+  nlohmann::json initial_surface_, per_frame_ = nlohmann::json::array();
+  StageTimes stages_before_;
+  std::int64_t steps_before_ = 0;
+  SelfCollisionStats self_before_;
+  bool told_ = false, stopped_in_frame_ = false;
+  Clock::time_point signalled_;
+};
+
+}  // namespace
+
+int run_scene(const RunOptions& options) {
+  const auto wall_start = Clock::now();
+  // Signals are caught from the start: one during setup stops the run after
+  // frame 0, with its checkpoint and summary (exit 130), like any other.
+  SignalGuard signals;
+  // 1. Everything that can be refused is read and checked before anything is written.
+  RunPlan plan = plan_run(options);
+  Scene& scene = plan.scene;
+  std::unique_ptr<tbb::global_control> threads;
+  if (options.threads > 0)
+    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    static_cast<std::size_t>(options.threads));
+  set_linear_algebra_threads(1);
+  claim_folder(options, plan);
 
   const std::unique_ptr<Simulation> simulation =
-      resumed ? reading_checkpoint(*options.resume, "", [&] { return std::make_unique<Simulation>(scene, *resumed); })
-              : std::make_unique<Simulation>(scene);
+      plan.resumed
+          ? reading_checkpoint(*options.resume, "", [&] { return std::make_unique<Simulation>(scene, *plan.resumed); })
+          : std::make_unique<Simulation>(scene);
   Simulation& sim = *simulation;
   for (SceneObject& object : scene.objects) {  // meshed: the simulation holds them now
     object.surface.reset();
@@ -410,261 +731,24 @@ int run_scene(const RunOptions& options) {
   const long long setup_peak_bytes = peak_memory_bytes();  // meshing done, nothing stepped
   int frame = 0;
   SimulationTotals initial = sim.totals();
-  const bool resuming = resumed.has_value();
-  if (resumed) reading_checkpoint(*options.resume, "", [&] {
-    const SimulationTotals loaded = sim.totals();  // the meshes the run goes on from
-    initial.nodes = loaded.nodes, initial.elements = loaded.elements;
-    initial.surface_vertices = loaded.surface_vertices, initial.surface_triangles = loaded.surface_triangles;
-    // Values no run writes are refused, naming the field: a frame number
-    // names files (frame_NNNNN), and the clock is the frame's.
-    const std::int64_t stored_frame = resumed->integer("run/frame");
-    if (stored_frame < 0 || stored_frame > 99999)
-      throw Error(fmt::format("{}: run/frame is {}, not a frame number (0 to 99999)", *options.resume, stored_frame));
-    frame = static_cast<int>(stored_frame);
-    if (const double expected = frame / scene.output.fps;
-        !(std::abs(sim.time() - expected) <= 1e-9 * std::max(1.0, expected)))
-      throw Error(fmt::format("{}: time is {} s, but frame {} at {} fps is at {} s", *options.resume, sim.time(), frame,
-                              scene.output.fps, expected));
-    initial.mass = resumed->real("run/initial_mass");
-    initial.volume = resumed->real("run/initial_volume");
-    const Eigen::MatrixXd momentum = resumed->matrix("run/initial_momentum", 3);
-    if (momentum.rows() != 1)
-      throw Error(fmt::format("run/initial_momentum must be one row of 3 values, got {} rows", momentum.rows()));
-    initial.momentum = momentum.row(0).transpose();
-    if (!(std::isfinite(initial.mass) && initial.mass > 0.0 && std::isfinite(initial.volume) && initial.volume > 0.0 &&
-          initial.momentum.allFinite()))
-      throw Error(fmt::format("{}: run/initial_mass, run/initial_volume or run/initial_momentum is not a body's "
-                              "(non-positive or not finite)",
-                              *options.resume));
-    if (frame > last_frame)
-      throw Error(fmt::format("{}: the checkpoint is at frame {}, past the last frame {} asked for", *options.resume,
-                              frame, last_frame));
-    resumed.reset();  // the simulation holds the state now; a second copy would last the whole run
-  });
-
-  // 2. The output folder.
-  fs::create_directories(folder / "frames", ec);
-  if (!ec) fs::create_directories(folder / "checkpoints", ec);
-  if (ec) throw WriteError(fmt::format("{}: cannot create the output folder: {}", folder.string(), ec.message()));
-  Outputs outputs{folder, &scene.output, nullptr, 0.0, 0.0, {}};
-  if (scene.output.hdf5) outputs.run_file = std::make_unique<io::RunFile>(folder, resuming ? frame + 1 : 0);
-  double checkpoint_seconds = 0.0;
-  // Each array goes to the file as the simulation hands it over: a second
-  // copy of the whole state would be the run's peak of memory.
-  auto write_checkpoint = [&](int f) {
-    const auto start = Clock::now();
-    io::CheckpointWriter writer(folder / "checkpoints" / fmt::format("frame_{:05d}.h5", f));
-    sim.save(writer);
-    add_run_fields(writer, scene, f, initial);
-    writer.commit();
-    checkpoint_seconds += seconds_since(start);
-  };
-
-  if (!options.quiet) {
-    const SimulationTotals t = sim.totals();
-    log().info("{}: {} objects, {} elements, {} surface triangles, {} integrator, frames {} to {} at {} fps into {}",
-               scene.source, scene.objects.size(), t.elements, t.surface_triangles, to_string(scene.integrator),
-               frame, last_frame, scene.output.fps, folder.string());
-  }
-  std::string status = "completed", failure;
-  int exit_code = 0;
-  // A file that cannot be written (the disk full, a quota or size limit, the
-  // folder removed) ends the run: the files written before stay, and the
-  // summary says why (if it can still be written).
-  auto written = [&](const std::function<void()>& write) {
-    try {
-      write();
-      return true;
-    } catch (const WriteError& e) {
-      failure = fmt::format("cannot write the output: {}", e.what());
-      log().error("{}", failure);
-      log().error("the frames and checkpoints written before are kept in {}", folder.string());
-      status = "failed";
-      exit_code = kExitWriteFailure;
-      return false;
-    }
-  };
-  if (!resuming) written([&] { outputs.write_frame(0, sim); });
-  // Frame 0's surface (a resumed run wrote it before).
-  const nlohmann::json initial_surface = resuming ? nlohmann::json(nullptr) : to_json(outputs.quality);
-
-  // 3. Frames. Each frame boundary is a restart point, so a checkpoint taken
-  // there resumes bitwise identically. A first SIGINT or SIGTERM finishes
-  // the frame under way, writes it and its checkpoint, and exits with 130; a
-  // second stops at once, keeping the checkpoints already written. (Holding
-  // a copy of the last frame's state instead, to write when a signal comes,
-  // cost 430 bytes per tet: 40% of the Newmark path's memory.)
-  Progress progress(options.quiet, frame, last_frame);
-  progress.set_steps0(sim.steps());
-  const int first_frame = frame;
-  // Per frame (the profile of docs/benchmarks.md): the wall time of each
-  // stage spent on it, and the mesh sizes at its end.
-  nlohmann::json per_frame = nlohmann::json::array();
-  StageTimes stages_before = sim.stage_times();
-  std::int64_t steps_before = sim.steps();
-  SelfCollisionStats self_before = sim.self_collision_totals();
-  auto frame_record = [&](int k, double output_before, double quality_before) {
-    const StageTimes& st = sim.stage_times();
-    const SimulationTotals t = sim.totals();
-    nlohmann::json r = {{"frame", k},
-                        {"time", sim.time()},
-                        {"steps", sim.steps() - steps_before},
-                        {"remeshes", sim.remeshes()},
-                        {"elements", t.elements},
-                        {"surface_triangles", t.surface_triangles},
-                        {"stages",
-                         {{"integrate", st.integrate - stages_before.integrate},
-                          {"remesh_check", st.remesh_check - stages_before.remesh_check},
-                          {"remesh", st.remesh - stages_before.remesh},
-                          {"safety_checks", st.safety - stages_before.safety},
-                          {"frames_output", outputs.seconds - output_before},
-                          {"surface_quality", outputs.quality_seconds - quality_before}}},
-                        {"surface", to_json(outputs.quality)},
-                        {"self_collisions", to_json(sim.self_collision_totals(), self_before)},
-                        {"volume_projection", to_json(sim.take_frame_volume_stats())},
-                        {"damping_solve", to_json(sim.take_frame_damping_stats())},
-                        {"integrate_stages", step_stages(st.step, stages_before.step)},
-                        {"remesh_stages", remesh_stages(st.remesh_stages, stages_before.remesh_stages)}};
-    stages_before = st;
-    self_before = sim.self_collision_totals();
-    steps_before = sim.steps();
-    return r;
-  };
-  bool told = false, stopped_in_frame = false;
-  Clock::time_point signalled;
-  auto stop_now = [&] {
-    if (g_signals == 1 && !told) {
-      told = true;
-      signalled = Clock::now();
-      progress.finish();
-      log().warn("signal {}: finishing frame {}, then writing its checkpoint (another signal stops at once; so "
-                 "does a frame not finished within {:.0f} s)",
-                 static_cast<int>(g_signal), frame + 1, kSignalGrace);
-    }
-    // A frame that would not end (a huge frame time, a tiny time step) must
-    // not hold a signalled run forever.
-    return g_signals >= 2 || (told && seconds_since(signalled) > kSignalGrace);
-  };
-  while (exit_code == 0) {
-    sim.make_restart_point();
-    if (frame >= last_frame) break;
-    if (g_signals > 0) {  // a whole frame after the signal: its checkpoint is written below
-      if (!told) log().warn("signal {} during setup: stopping after frame {}", static_cast<int>(g_signal), frame);
-      status = "interrupted";
-      exit_code = kExitInterrupted;
-      break;
-    }
-    const int every = scene.checkpoint_every_frames;
-    if (every > 0 && frame > first_frame && frame % every == 0 && !written([&] { write_checkpoint(frame); })) break;
-    bool completed = false;
-    try {
-      completed = sim.advance_to((frame + 1) / scene.output.fps, stop_now);
-    } catch (const std::exception& e) {
-      // The input passed every check before the first step: what fails
-      // while stepping (a NaN, a runaway node, a time step that underflows
-      // to zero) is a numerical failure, diagnosed, with the summary written.
-      const bool diagnosed = dynamic_cast<const NumericalFailure*>(&e) != nullptr;
-      if (!diagnosed && dynamic_cast<const Error*>(&e) == nullptr) throw;  // a bug: exit 1
-      progress.finish();
-      failure = diagnosed ? e.what() : fmt::format("numerical failure in frame {} (t = {:.6g} s): {}", frame + 1, sim.time(), e.what());
-      log().error("{}", failure);
-      log().error("the last good checkpoint is kept in {}", (folder / "checkpoints").string());
-      status = "failed";
-      exit_code = kExitNumericalFailure;
-      break;
-    }
-    if (!completed) {
-      stopped_in_frame = true;
-      progress.finish();
-      log().warn("{}: stopping now, in frame {}; the checkpoints already written are kept",
-                 g_signals >= 2 ? "a second signal" : "the frame did not finish in time", frame + 1);
-      status = "interrupted";
-      exit_code = kExitInterrupted;
-      break;
-    }
-    ++frame;
-    const double output_before = outputs.seconds, quality_before = outputs.quality_seconds;
-    if (!written([&] { outputs.write_frame(frame, sim); })) {
-      --frame;  // the last frame written whole
-      progress.finish();
-      break;
-    }
-    per_frame.push_back(frame_record(frame, output_before, quality_before));
-    progress.update(frame, sim.time(), sim.steps(), sim.remeshes(), frame == last_frame);
-  }
-  const long long stepping_peak_bytes = peak_memory_bytes();  // before the final checkpoint
-  if (exit_code == 0 || (exit_code == kExitInterrupted && g_signals == 1 && !stopped_in_frame)) {
-    progress.finish();
-    if (exit_code == kExitInterrupted) log().warn("interrupted: writing the checkpoint of frame {}", frame);
-    written([&] { write_checkpoint(frame); });  // the run's end, or the frame finished after a signal
+  const bool resuming = plan.resumed.has_value();
+  if (resuming) {
+    frame = reading_checkpoint(*options.resume, "", [&] {
+      return resumed_frame(*options.resume, *plan.resumed, scene, sim, plan.last_frame, initial);
+    });
+    plan.resumed.reset();  // the simulation holds the state now; a second copy would last the whole run
   }
 
-  // 4. The summary.
-  const SimulationTotals now = sim.totals();
-  const StageTimes& st = sim.stage_times();
-  nlohmann::json j;
-  j["status"] = status;
-  if (!failure.empty()) j["failure"] = failure;
-  {
-    // Where the scene is, from anywhere (goo render finds it there).
-    std::error_code absolute_error;
-    const bool file = fs::is_regular_file(scene.source, absolute_error);
-    j["scene"] = file ? fs::absolute(scene.source, absolute_error).lexically_normal().string() : scene.source;
-  }
-  j["integrator"] = std::string(to_string(scene.integrator));
-  j["frames"] = frame;
-  j["fps"] = scene.output.fps;
-  j["simulated_seconds"] = sim.time();
-  j["wall_seconds"] = seconds_since(wall_start);
-  j["stages"] = {{"integrate", st.integrate},       {"remesh_check", st.remesh_check}, {"remesh", st.remesh},
-                 {"safety_checks", st.safety},       {"frames_output", outputs.seconds},
-                 {"surface_quality", outputs.quality_seconds}, {"checkpoints", checkpoint_seconds}};
-  j["integrate_stages"] = step_stages(st.step, StepTimes{});
-  j["remesh_stages"] = remesh_stages(st.remesh_stages, RemeshTimes{});
-  j["steps"] = sim.steps();
-  j["remeshes"] = sim.remeshes();
-  j["nodes"] = now.nodes;
-  j["elements"] = now.elements;
-  j["surface_vertices"] = now.surface_vertices;
-  j["surface_triangles"] = now.surface_triangles;
-  j["initial_elements"] = initial.elements;
-  j["initial_surface_triangles"] = initial.surface_triangles;
-  j["initial_mass"] = initial.mass;
-  j["total_mass"] = now.mass;
-  j["initial_volume"] = initial.volume;
-  j["final_volume"] = now.volume;
-  j["linear_momentum"] = {now.momentum.x(), now.momentum.y(), now.momentum.z()};
-  if (no_external_force(scene)) {
-    j["momentum_drift"] = (now.momentum - initial.momentum).norm();
-  } else {
-    j["momentum_drift"] = nullptr;  // gravity, the ground, obstacles or pins act on the bodies
-  }
-  j["threads"] = options.threads;
-  j["peak_memory_bytes"] = peak_memory_bytes();
-  j["setup_peak_memory_bytes"] = setup_peak_bytes;
-  j["stepping_peak_memory_bytes"] = stepping_peak_bytes;
-  j["initial_surface"] = initial_surface;
-  j["self_collisions"] = to_json(sim.self_collision_totals(), SelfCollisionStats{});
-  j["volume_projection"] = to_json(sim.volume_totals());
-  j["damping_solve"] = to_json(sim.damping_totals());
-  j["per_frame"] = per_frame;
-  // File names (the scene's, the bodies') need not be UTF-8: such bytes become U+FFFD.
-  const std::string text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
-  try {
-    io::write_file_atomically(folder / "summary.json", [&](std::ostream& out) { out << text; });
-  } catch (const WriteError& e) {
-    log().error("no summary: {}", e.what());
-    if (exit_code == 0) exit_code = kExitWriteFailure;
-  }
-  if (!options.quiet && exit_code == 0)
-    log().info("{} frames, {} steps, {} re-meshes in {:.1f} s; volume {:.6g} → {:.6g} m³; summary in {}", frame,
-               sim.steps(), sim.remeshes(), seconds_since(wall_start), initial.volume, now.volume,
-               (folder / "summary.json").string());
+  // 2. The output folder; 3. the frames; 4. the summary.
+  Run run(options, scene, sim, plan.folder, frame, plan.last_frame, initial);
+  run.open(resuming);
+  run.frames();
+  const int exit_code = run.report(wall_start, setup_peak_bytes);
   // The built-in demo always ends with its contact sheet.
   if (options.preview || (!options.scene && !options.resume)) {
     // The run's own result stands whatever happens to its picture.
     try {
-      const fs::path sheet = render_contact_sheet(folder, scene, 12, options.quiet);
+      const fs::path sheet = render_contact_sheet(plan.folder, scene, 12, options.quiet);
       std::fprintf(stdout, "contact sheet: %s\n", sheet.string().c_str());
       std::fflush(stdout);
     } catch (const std::exception& e) {
