@@ -103,208 +103,251 @@ void apply_blocks(const Body& body, const std::vector<Matrix12>& C, const Points
 
 }  // namespace
 
-bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& status) {
-  StageTimer timer;
-  const Index nn = body.num_nodes(), ne = body.num_elements();
-  const Eigen::VectorXd& m = body.masses;
-  const Points xn = body.positions, vn = body.velocities;
-  const double t_next = time_ + dt;
-
-  // Inertia target and the constrained nodes' positions at t_next; an
-  // incompressible material's carried pressure force joins gravity as a
-  // load constant over the step.
-  Points target = xn + dt * vn;
-  target.rowwise() += dt * dt * settings_.gravity.transpose();
-  if (body.material.incompressible) {
-    Points pressure = Points::Zero(nn, 3);
-    volume_.add_pressure_forces(body, xn, pressure);
-    for (Index n = 0; n < nn; ++n)
-      if (m[n] > 0.0) target.row(n) += (dt * dt / m[n]) * pressure.row(n);
+/// The incremental potential of one step and its gradient (algorithms.md,
+/// "Time integration"): E(y) = ½‖y − x̂‖²_M/Δt² + Ψ(y) + σA(Wy) + Δt/2 vᵀCv,
+/// v = (y − xⁿ)/Δt, C_e with Fe frozen at xⁿ; an incompressible material's
+/// carried pressure force joins gravity in x̂ as a load constant over the step.
+struct BackwardEulerIntegrator::Potential {
+  Potential(BackwardEulerIntegrator& integrator, Body& body_, double dt_)
+      : body(body_), elastic(integrator.elastic_), tension(integrator.tension_), fixed(integrator.fixed_), dt(dt_),
+        xn(body_.positions), viscous(body_.material.viscosity > 0.0), with_tension(EmbeddedTension::active(body_)) {
+    const Index nn = body.num_nodes(), ne = body.num_elements();
+    const Eigen::VectorXd& m = body.masses;
+    target = xn + dt * body.velocities;
+    target.rowwise() += dt * dt * integrator.settings_.gravity.transpose();
+    if (body.material.incompressible) {
+      Points pressure = Points::Zero(nn, 3);
+      integrator.volume_.add_pressure_forces(body, xn, pressure);
+      for (Index n = 0; n < nn; ++n)
+        if (m[n] > 0.0) target.row(n) += (dt * dt / m[n]) * pressure.row(n);
+    }
+    // Viscosity: C_e with Fe frozen at xⁿ (damping is linear in v: one matrix a step).
+    damping.resize(viscous ? at(ne) : 0);
+    if (viscous) {
+      tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+        for (Index e = r.begin(); e != r.end(); ++e) {
+          const Eigen::Matrix3d Fe = deformation_gradient(body, xn, e) * body.Fp[at(e)].inverse();
+          damping[at(e)] = element_damping_matrix(body, Fe, e);
+        }
+      });
+    }
+    // Surface tension (W&T sec. 7) as the energy σ A(W x) (algorithms.md,
+    // "Surface tension"): its Hessian couples the nodes of each triangle's
+    // corners' parents, which the pattern includes.
+    if (with_tension) surface_nodes = SurfaceNodes::of(body);
+    gradient.resize(nn, 3);
   }
-  Points x = target;
-  for (const Index n : constraints_.pinned) x.row(n) = xn.row(n);
-  for (const auto& motion : constraints_.prescribed)
-    for (const Index n : motion.nodes)
-      x.row(n) = motion.position(n, body.rest_positions.row(n).transpose(), t_next).transpose();
 
-  // Viscosity: C_e with Fe frozen at xⁿ (damping is linear in v: one matrix a step).
-  const bool viscous = body.material.viscosity > 0.0;
-  std::vector<Matrix12> damping(viscous ? at(ne) : 0);
-  if (viscous) {
-    tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
-      for (Index e = r.begin(); e != r.end(); ++e) {
-        const Eigen::Matrix3d Fe = deformation_gradient(body, xn, e) * body.Fp[at(e)].inverse();
-        damping[at(e)] = element_damping_matrix(body, Fe, e);
-      }
-    });
+  void forces(const Points& y, Points& out) {
+    elastic.evaluate(body, y, 0.0, out);
+    if (with_tension) tension.add_forces(body, y, SurfaceTensionForm::area_gradient, out);
   }
-  // Surface tension (W&T sec. 7) as the energy σ A(W x) (algorithms.md,
-  // "Surface tension"): its Hessian couples the nodes of each triangle's
-  // corners' parents, which the pattern includes.
-  const bool tension = EmbeddedTension::active(body);
-  const SurfaceNodes surface_nodes = tension ? SurfaceNodes::of(body) : SurfaceNodes{};
-  std::vector<Matrix9d> surface_blocks;
-  auto forces = [&](const Points& y, Points& out) {
-    elastic_.evaluate(body, y, 0.0, out);
-    if (tension) tension_.add_forces(body, y, SurfaceTensionForm::area_gradient, out);
-  };
-  Points scratch;
-  auto energy = [&](const Points& y) {
+
+  double energy(const Points& y) {
+    const Eigen::VectorXd& m = body.masses;
     double inertia = 0.0;
-    for (Index n = 0; n < nn; ++n) inertia += m[n] * (y.row(n) - target.row(n)).squaredNorm();
+    for (Index n = 0; n < body.num_nodes(); ++n) inertia += m[n] * (y.row(n) - target.row(n)).squaredNorm();
     double dissipation = 0.0;
     if (viscous) {
       const Points v = (y - xn) / dt;
       apply_blocks(body, damping, v, scratch);
       dissipation = 0.5 * dt * (v.array() * scratch.array()).sum();
     }
-    const double surface = tension ? EmbeddedTension::energy(body, y) : 0.0;
+    const double surface = with_tension ? EmbeddedTension::energy(body, y) : 0.0;
     return 0.5 * inertia / (dt * dt) + elastic_energy(body, y) + surface + dissipation;
-  };
-  Points f, gradient(nn, 3), damping_force;
-  auto evaluate_gradient = [&](const Points& y) {
+  }
+
+  /// ∇E(y) into `gradient`, zero at the fixed nodes.
+  void evaluate_gradient(const Points& y) {
+    const Eigen::VectorXd& m = body.masses;
     forces(y, f);
-    for (Index n = 0; n < nn; ++n) gradient.row(n) = m[n] * (y.row(n) - target.row(n)) / (dt * dt) - f.row(n);
+    for (Index n = 0; n < body.num_nodes(); ++n) gradient.row(n) = m[n] * (y.row(n) - target.row(n)) / (dt * dt) - f.row(n);
     if (viscous) {
       apply_blocks(body, damping, (y - xn) / dt, damping_force);
       gradient += damping_force;
     }
-    for (Index n = 0; n < nn; ++n)
-      if (fixed_[at(n)]) gradient.row(n).setZero();
-  };
-
-  // Force scale of the scene: gravity on the heaviest node, elastic and
-  // surface forces at xⁿ, and the inertial force m|v|/Δt (the only one for
-  // a stress-free body thrown without gravity).
-  forces(xn, f);
-  double inertia = 0.0;
-  for (Index n = 0; n < nn; ++n)
-    if (!fixed_[at(n)]) inertia = std::max(inertia, m[n] * body.velocities.row(n).norm() / dt);
-  double driven = 0.0;
-  if (!constraints_.prescribed.empty()) {
-    // Nodes moved along a path load the body at the first guess: a body at
-    // rest without gravity, pulled by its faces, has no other force.
-    forces(x, scratch);
-    driven = max_abs_free(scratch, fixed_);
+    for (Index n = 0; n < body.num_nodes(); ++n)
+      if (fixed[at(n)]) gradient.row(n).setZero();
   }
-  const double scale =
-      std::max({m.maxCoeff() * settings_.gravity.norm(), max_abs_free(f, fixed_), inertia, driven, 1e-300});
 
-  times_.forces += timer.lap();
-  if (!hessian_.matches(body.tets, nn, surface_nodes.nodes)) hessian_.build(body.tets, nn, surface_nodes.nodes);
-  if (factor_->analysed_for != hessian_.builds()) factor_->analysed_for = -1;
-  std::vector<Matrix12> blocks(at(ne));
+  /// The force scale residuals are measured against: gravity on the
+  /// heaviest node, elastic and surface forces at xⁿ, the inertial force
+  /// m|v|/Δt (the only one for a stress-free body thrown without gravity),
+  /// and, with nodes moved along a path, their load at the first guess x (a
+  /// body at rest without gravity, pulled by its faces, has no other force).
+  double force_scale(const Points& x, double gravity, bool driven_nodes) {
+    const Eigen::VectorXd& m = body.masses;
+    forces(xn, f);
+    double inertia = 0.0;
+    for (Index n = 0; n < body.num_nodes(); ++n)
+      if (!fixed[at(n)]) inertia = std::max(inertia, m[n] * body.velocities.row(n).norm() / dt);
+    double driven = 0.0;
+    if (driven_nodes) {
+      forces(x, scratch);
+      driven = max_abs_free(scratch, fixed);
+    }
+    return std::max({m.maxCoeff() * gravity, max_abs_free(f, fixed), inertia, driven, 1e-300});
+  }
+
+  Body& body;  // ElasticForces::evaluate keeps per-element state in it
+  ElasticForces& elastic;
+  EmbeddedTension& tension;
+  const std::vector<std::uint8_t>& fixed;
+  double dt;
+  Points xn, target;
+  bool viscous, with_tension;
+  std::vector<Matrix12> damping;
+  SurfaceNodes surface_nodes;
+  Points f, gradient, damping_force, scratch;
+};
+
+bool BackwardEulerIntegrator::newton_direction(const Body& body, const Potential& potential, const Points& x,
+                                               bool& project, const Eigen::VectorXd& rhs, Eigen::VectorXd& dx,
+                                               NewtonStatus& status, StageTimer& timer) {
+  // H = M/Δt² + Σ K_e + Σ C_e/Δt + Σ_t Wₜᵀ σ∂²Aₜ Wₜ. The element and
+  // triangle Hessians are first taken as they are: M/Δt² usually keeps the sum positive definite, and then
+  // Newton converges quadratically. Only if the factorisation finds H
+  // indefinite, or the step is not a descent direction, are they projected
+  // to positive semi-definite (K_e⁺) for the rest of the step. (Projecting
+  // always slows Newton to a linear rate, 0.77 per iteration measured on a
+  // stiff cube resting on the floor: compressed elements have slightly
+  // indefinite fixed-corotated Hessians.)
+  const Index nn = body.num_nodes(), ne = body.num_elements();
+  const double dt = potential.dt;
   Eigen::VectorXd diagonal(3 * nn);
-  for (Index n = 0; n < nn; ++n) diagonal.segment<3>(3 * n).setConstant(m[n] / (dt * dt));
+  for (Index n = 0; n < nn; ++n) diagonal.segment<3>(3 * n).setConstant(body.masses[n] / (dt * dt));
+  bool solved = false;
+  for (int attempt = 0; attempt < 2 && !solved; ++attempt) {
+    if (attempt > 0) {
+      if (project) break;
+      project = true;
+    }
+    timer.lap();
+    blocks_.resize(at(ne));
+    tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+      for (Index e = r.begin(); e != r.end(); ++e) {
+        blocks_[at(e)] = element_elastic_hessian(body, x, e, project);
+        if (potential.viscous) blocks_[at(e)] += potential.damping[at(e)] / dt;
+      }
+    });
+    hessian_.assemble(blocks_, diagonal);
+    if (potential.with_tension) {
+      EmbeddedTension::triangle_hessians(body, x, project, surface_blocks_);
+      hessian_.add_surface(potential.surface_nodes, surface_blocks_);
+    }
+    hessian_.fix_nodes(fixed_);
+    times_.hessian += timer.lap();
+    if (factor_->analysed_for < 0) {
+      factor_->llt.analyzePattern(hessian_.matrix());
+      ++factor_->symbolic;
+      factor_->analysed_for = hessian_.builds();
+    }
+    const bool lagged = settings_.linear_solver == LinearSolver::lagged_pcg ||
+                        (settings_.linear_solver == LinearSolver::automatic && 3L * nn > kLaggedPcgUnknowns);
+    bool have = lagged && factor_->factored_for == hessian_.builds() && lagged_pcg(rhs, dx, status);
+    if (!have) {
+      factor_->llt.factorize(hessian_.matrix());
+      ++status.factorisations;
+      if (factor_->llt.info() != Eigen::Success) {
+        factor_->factored_for = -1;
+        continue;  // indefinite: project
+      }
+      factor_->factored_for = hessian_.builds();
+      dx = factor_->llt.solve(rhs);
+      have = factor_->llt.info() == Eigen::Success;
+    }
+    solved = have && dx.allFinite() && rhs.dot(dx) > 0.0;  // a descent direction
+    times_.linear_solve += timer.lap();
+  }
+  return solved;
+}
+
+namespace {
+
+/// Backtracking (Armijo) on E along the Newton direction from x: x and E
+/// become the accepted point and its energy. Once the predicted decrease is
+/// below what E resolves (its terms carry relative round-off near 1e-13: ψ
+/// of F ≈ I loses digits to σ − 1), the energy cannot judge a step any more
+/// and the full Newton step is taken: the system is positive definite and
+/// the step already tiny. False when twenty halvings do not decrease E.
+template <class Energy>
+bool line_search(Energy&& energy, const Eigen::Map<const Points>& step, double slope, Points& x, double& E,
+                 NewtonStatus& status) {
+  double alpha = 1.0;
+  Points trial = x + step;
+  const bool below_resolution = -slope <= 1e-10 * std::abs(E);
+  if (below_resolution) E = energy(trial);
+  for (int ls = 0; ls < 20 && !below_resolution; ++ls) {
+    trial = x + alpha * step;
+    const double trial_E = energy(trial);
+    if (std::isfinite(trial_E) && trial_E <= E + 1e-4 * alpha * slope) {
+      E = trial_E;
+      break;
+    }
+    alpha *= 0.5;
+    ++status.line_search_steps;
+    if (ls == 19) return false;
+  }
+  x = trial;
+  return true;
+}
+
+}  // namespace
+
+bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& status) {
+  StageTimer timer;
+  const Index nn = body.num_nodes();
+  const Points xn = body.positions;
+  const double t_next = time_ + dt;
+  Potential potential(*this, body, dt);
+  // The first guess: x̂, the constrained nodes at their positions at t_next.
+  Points x = potential.target;
+  for (const Index n : constraints_.pinned) x.row(n) = xn.row(n);
+  for (const auto& motion : constraints_.prescribed)
+    for (const Index n : motion.nodes)
+      x.row(n) = motion.position(n, body.rest_positions.row(n).transpose(), t_next).transpose();
+  const double scale = potential.force_scale(x, settings_.gravity.norm(), !constraints_.prescribed.empty());
+  times_.forces += timer.lap();
+  if (!hessian_.matches(body.tets, nn, potential.surface_nodes.nodes))
+    hessian_.build(body.tets, nn, potential.surface_nodes.nodes);
+  if (factor_->analysed_for != hessian_.builds()) factor_->analysed_for = -1;
 
   status = NewtonStatus{};
   status.dt = dt;
-  double E = energy(x);
+  double E = potential.energy(x);
   bool project = false;
   times_.hessian += timer.lap();
-  for (int iteration = 0; iteration < settings_.max_newton_iterations; ++iteration) {
-    evaluate_gradient(x);
-    times_.forces += timer.lap();
-    const double residual = max_abs_free(gradient, fixed_) / scale;
-    if (!std::isfinite(residual) || !std::isfinite(E)) return false;
+  auto accept = [&](double residual, int iterations) {
     status.residual = residual;
-    status.residuals.push_back(residual);
-    if (residual <= settings_.tolerance) {
-      status.iterations = iteration;
-      body.velocities = (x - xn) / dt;
-      body.positions = x;
-      return true;
-    }
-    // H = M/Δt² + Σ K_e + Σ C_e/Δt + Σ_t Wₜᵀ σ∂²Aₜ Wₜ. The element and
-    // triangle Hessians are first taken as they are: M/Δt² usually keeps the sum positive definite, and then
-    // Newton converges quadratically. Only if the factorisation finds H
-    // indefinite, or the step is not a descent direction, are they projected
-    // to positive semi-definite (K_e⁺) for the rest of the step. (Projecting
-    // always slows Newton to a linear rate, 0.77 per iteration measured on a
-    // stiff cube resting on the floor: compressed elements have slightly
-    // indefinite fixed-corotated Hessians.)
-    const Eigen::VectorXd rhs = -Eigen::Map<const Eigen::VectorXd>(gradient.data(), 3 * nn);
-    Eigen::VectorXd dx;
-    bool solved = false;
-    for (int attempt = 0; attempt < 2 && !solved; ++attempt) {
-      if (attempt > 0) {
-        if (project) break;
-        project = true;
-      }
-      timer.lap();
-      tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
-        for (Index e = r.begin(); e != r.end(); ++e) {
-          blocks[at(e)] = element_elastic_hessian(body, x, e, project);
-          if (viscous) blocks[at(e)] += damping[at(e)] / dt;
-        }
-      });
-      hessian_.assemble(blocks, diagonal);
-      if (tension) {
-        EmbeddedTension::triangle_hessians(body, x, project, surface_blocks);
-        hessian_.add_surface(surface_nodes, surface_blocks);
-      }
-      hessian_.fix_nodes(fixed_);
-      times_.hessian += timer.lap();
-      if (factor_->analysed_for < 0) {
-        factor_->llt.analyzePattern(hessian_.matrix());
-        ++factor_->symbolic;
-        factor_->analysed_for = hessian_.builds();
-      }
-      const bool lagged = settings_.linear_solver == LinearSolver::lagged_pcg ||
-                          (settings_.linear_solver == LinearSolver::automatic && 3L * nn > kLaggedPcgUnknowns);
-      bool have = lagged && factor_->factored_for == hessian_.builds() && lagged_pcg(rhs, dx, status);
-      if (!have) {
-        factor_->llt.factorize(hessian_.matrix());
-        ++status.factorisations;
-        if (factor_->llt.info() != Eigen::Success) {
-          factor_->factored_for = -1;
-          continue;  // indefinite: project
-        }
-        factor_->factored_for = hessian_.builds();
-        dx = factor_->llt.solve(rhs);
-        have = factor_->llt.info() == Eigen::Success;
-      }
-      solved = have && dx.allFinite() && rhs.dot(dx) > 0.0;  // a descent direction
-      times_.linear_solve += timer.lap();
-    }
-    if (!solved) return false;
-    const Eigen::Map<const Points> step(dx.data(), nn, 3);
-    // Backtracking (Armijo) on E along the Newton direction. Once the
-    // predicted decrease is below what E resolves (its terms carry relative
-    // round-off near 1e-13: ψ of F ≈ I loses digits to σ − 1), the energy
-    // cannot judge a step any more and the full Newton step is taken: the
-    // system is positive definite and the step already tiny.
-    const double slope = -rhs.dot(dx);
-    double alpha = 1.0;
-    Points trial = x + step;
-    const bool below_resolution = -slope <= 1e-10 * std::abs(E);
-    if (below_resolution) E = energy(trial);
-    for (int ls = 0; ls < 20 && !below_resolution; ++ls) {
-      trial = x + alpha * step;
-      const double trial_E = energy(trial);
-      if (std::isfinite(trial_E) && trial_E <= E + 1e-4 * alpha * slope) {
-        E = trial_E;
-        break;
-      }
-      alpha *= 0.5;
-      ++status.line_search_steps;
-      if (ls == 19) return false;
-    }
-    x = trial;
-    times_.forces += timer.lap();  // the line search's energies
-  }
-  // The iterations ran out: accept a residual below acceptable_tolerance.
-  evaluate_gradient(x);
-  const double residual = max_abs_free(gradient, fixed_) / scale;
-  if (std::isfinite(residual) && residual <= settings_.acceptable_tolerance) {
-    log().debug("backward_euler: accepted Δt = {} s at residual {:.3g} after {} iterations", dt, residual,
-                settings_.max_newton_iterations);
-    status.residual = residual;
-    status.residuals.push_back(residual);
-    status.iterations = settings_.max_newton_iterations;
+    status.iterations = iterations;
     body.velocities = (x - xn) / dt;
     body.positions = x;
     return true;
+  };
+  for (int iteration = 0; iteration < settings_.max_newton_iterations; ++iteration) {
+    potential.evaluate_gradient(x);
+    times_.forces += timer.lap();
+    const double residual = max_abs_free(potential.gradient, fixed_) / scale;
+    if (!std::isfinite(residual) || !std::isfinite(E)) return false;
+    status.residual = residual;
+    status.residuals.push_back(residual);
+    if (residual <= settings_.tolerance) return accept(residual, iteration);
+    const Eigen::VectorXd rhs = -Eigen::Map<const Eigen::VectorXd>(potential.gradient.data(), 3 * nn);
+    Eigen::VectorXd dx;
+    if (!newton_direction(body, potential, x, project, rhs, dx, status, timer)) return false;
+    const Eigen::Map<const Points> step(dx.data(), nn, 3);
+    if (!line_search([&](const Points& y) { return potential.energy(y); }, step, -rhs.dot(dx), x, E, status))
+      return false;
+    times_.forces += timer.lap();  // the line search's energies
+  }
+  // The iterations ran out: accept a residual below acceptable_tolerance.
+  potential.evaluate_gradient(x);
+  const double residual = max_abs_free(potential.gradient, fixed_) / scale;
+  if (std::isfinite(residual) && residual <= settings_.acceptable_tolerance) {
+    log().debug("backward_euler: accepted Δt = {} s at residual {:.3g} after {} iterations", dt, residual,
+                settings_.max_newton_iterations);
+    status.residuals.push_back(residual);
+    return accept(residual, settings_.max_newton_iterations);
   }
   return false;
 }

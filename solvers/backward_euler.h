@@ -65,7 +65,14 @@ class BackwardEulerIntegrator {
   [[nodiscard]] const SparseHessian& hessian() const { return hessian_; }
 
  private:
+  struct Potential;
   bool try_step(Body& body, double dt, NewtonStatus& status);
+  /// The Newton direction dx of H dx = rhs at x (H assembled there; its
+  /// element and triangle Hessians projected to positive semi-definite once
+  /// `project` is set, which an indefinite H or a non-descent direction
+  /// sets); false when there is none.
+  bool newton_direction(const Body& body, const Potential& potential, const Points& x, bool& project,
+                        const Eigen::VectorXd& rhs, Eigen::VectorXd& dx, NewtonStatus& status, StageTimer& timer);
   /// Solves H x = b by CG preconditioned with the last factor; false if it
   /// needs more than pcg_max_iterations (the caller then refactors).
   bool lagged_pcg(const Eigen::VectorXd& b, Eigen::VectorXd& x, NewtonStatus& status);
@@ -81,6 +88,8 @@ class BackwardEulerIntegrator {
   struct Factor;
   std::unique_ptr<Factor> factor_;
   std::vector<std::uint8_t> fixed_;
+  std::vector<Matrix12> blocks_;         // the element Hessians, kept across iterations
+  std::vector<Matrix9d> surface_blocks_;  // the surface triangles'
   double time_ = 0.0;
   StepTimes times_;  // this step's, by stage
 };
