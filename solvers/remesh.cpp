@@ -82,29 +82,17 @@ MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, doub
   return out;
 }
 
-MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, RemeshReport* report,
-                  const UpkeepSettings* upkeep, const TriangleMesh* others) {
-  StageTimer timer;
-  RemeshTimes times;
-  TriangleMesh upkept;
-  if (upkeep) {
-    upkept = current;
-    const UpkeepReport done = upkeep_surface(upkept, h, *upkeep, others);
-    if (report) report->upkeep = done;
-  }
-  times.upkeep = timer.lap();
-  const TriangleMesh& surface = upkeep ? upkept : current;
-  MeshedBody out{Body{}, build_lattice_mesh(surface, h)};
-  const LatticeMesh& lm = out.lattice_mesh;
-  Body& body = out.body;
-  body = body_on_lattice(lm, old.material);
-  times.lattice = timer.lap();
+namespace {
 
-  // Velocities: interpolation in the old deformed elements.
+/// The old body's velocities (interpolated in its deformed elements), its
+/// elastic state (Fe = F Fp⁻¹ averaged as left stretches, scaled so that the
+/// material's stress-free volume is kept) and the exact masses of that
+/// state, on the new mesh `body` around `surface`. Returns where each new
+/// node was found in the old mesh.
+NodeSources transfer_state(const Body& old, const TriangleMesh& surface, const LatticeMesh& lm, Body& body,
+                           RemeshReport* report, RemeshTimes& times, StageTimer& timer) {
   const NodeSources sources = locate_in_old_mesh(old.tets, old.positions, lm);
   body.velocities = interpolate(sources, old.tets, old.velocities);
-
-  // Elastic state: Fe = F Fp⁻¹ of the old elements, averaged as left stretches.
   std::vector<Eigen::Matrix3d> old_Fe(at(old.num_elements()));
   tbb::parallel_for(tbb::blocked_range<Index>(0, old.num_elements(), kParallelGrain),
                     [&](const tbb::blocked_range<Index>& r) {
@@ -136,14 +124,17 @@ MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, Remesh
   }
   body.alpha = state.alpha;
   body.solid_fractions = solid_fractions(solid, body.rest_volumes);
-
   // Exact masses of the transferred state, clamped.
   body.masses = exact_node_masses(lm, solid, old.material.density, det_Fe, old.material.min_mass_fraction);
   times.masses = timer.lap();
+  return sources;
+}
 
-  // Conservation: m_i ← m_i (a + g·(x_i − c)) restores total mass and centre
-  // of mass (a = M_old / M_new; g solves Σ m (x − c)(x − c)ᵀ g = M_old (c_old − c_new));
-  // a uniform Δv restores linear momentum.
+/// Conservation: m_i ← m_i (a + g·(x_i − c)) restores total mass and centre
+/// of mass (a = M_old / M_new; g solves Σ m (x − c)(x − c)ᵀ g = M_old (c_old − c_new));
+/// a uniform Δv restores linear momentum. The report gets the errors before.
+void restore_totals(const Body& old, const TriangleMesh& surface, const NodeSources& sources, Body& body,
+                    RemeshReport* report) {
   const Totals before = totals(old.masses, old.positions, old.velocities);
   const Totals now = totals(body.masses, body.positions, body.velocities);
   const double size = bounding_box(surface.vertices).diagonal().norm();
@@ -190,6 +181,29 @@ MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, Remesh
   } else {
     log().warn("re-mesh: the transferred masses cannot be corrected (mass ratio {}); kept as they are", a);
   }
+}
+
+}  // namespace
+
+MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, RemeshReport* report,
+                  const UpkeepSettings* upkeep, const TriangleMesh* others) {
+  StageTimer timer;
+  RemeshTimes times;
+  TriangleMesh upkept;
+  if (upkeep) {
+    upkept = current;
+    const UpkeepReport done = upkeep_surface(upkept, h, *upkeep, others);
+    if (report) report->upkeep = done;
+  }
+  times.upkeep = timer.lap();
+  const TriangleMesh& surface = upkeep ? upkept : current;
+  MeshedBody out{Body{}, build_lattice_mesh(surface, h)};
+  const LatticeMesh& lm = out.lattice_mesh;
+  Body& body = out.body;
+  body = body_on_lattice(lm, old.material);
+  times.lattice = timer.lap();
+  const NodeSources sources = transfer_state(old, surface, lm, body, report, times, timer);
+  restore_totals(old, surface, sources, body, report);
   body.surface_triangles = surface.triangles;
   body.embedding = embed(lm, surface.vertices);
   times.conservation = timer.lap();
