@@ -133,20 +133,51 @@ void NewmarkIntegrator::solve_damped(const Body& body, double h, const Points& r
   increment_ = v - start;
 }
 
+void NewmarkIntegrator::zero_constrained(Points& a) const {
+  for (Index n = 0; n < a.rows(); ++n)
+    if (constrained_[at(n)]) a.row(n).setZero();
+}
+
+void NewmarkIntegrator::apply_system(const Body& body, double h, const Points& x, Points& out) {
+  damping_.apply(body, elastic_.elastic_deformation(), elastic_.inverse_plastic_deformation(), x, Cp_);  // −C x
+  out = x;
+  for (Index n = 0; n < body.num_nodes(); ++n) out.row(n) *= body.masses[n];
+  out -= h * Cp_;
+}
+
+double NewmarkIntegrator::velocity_norm(const Body& body, const Points& r) {
+  double sum = 0.0;
+  for (Index n = 0; n < body.num_nodes(); ++n) sum += r.row(n).squaredNorm() / body.masses[n];
+  return std::sqrt(sum);
+}
+
+void NewmarkIntegrator::invert_diagonal_blocks(const Body& body, double h) {
+  // Block-Jacobi: each node's own 3×3 block of M + hC inverted. C's blocks
+  // depend on Fe alone, so one set serves the step's second solve and the
+  // next step's first (Fe at xⁿ⁺¹ both). Measured on the armadillo grate,
+  // 8 frames, warm started: 24,436 iterations where mass scaling took 37,979.
+  const Index nn = body.num_nodes();
+  if (!blocks_fresh_ || blocks_.size() != static_cast<std::size_t>(nn)) {
+    damping_.diagonal_blocks(body, elastic_.elastic_deformation(), elastic_.inverse_plastic_deformation(), blocks_);
+    blocks_fresh_ = true;
+  }
+  inverse_blocks_.resize(at(nn));
+  for (Index n = 0; n < nn; ++n) {
+    // Inverted at unit scale: the cofactors of a block of 1e197 kg overflow.
+    const Eigen::Matrix3d block = h * blocks_[at(n)] + body.masses[n] * Eigen::Matrix3d::Identity();
+    const double size = block.trace() / 3.0;
+    inverse_blocks_[at(n)] = (block / size).inverse() / size;
+  }
+}
+
+void NewmarkIntegrator::precondition() {
+  z_.resize(r_.rows(), 3);
+  for (Index n = 0; n < r_.rows(); ++n) z_.row(n) = (inverse_blocks_[at(n)] * r_.row(n).transpose()).transpose();
+}
+
 void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& rhs, const Points* guess, Points& v,
                                      StepStatus& status) {
   const Index nn = body.num_nodes();
-  const Eigen::VectorXd& m = body.masses;
-  auto free_only = [&](Points& a) {
-    for (Index n = 0; n < nn; ++n)
-      if (constrained_[at(n)]) a.row(n).setZero();
-  };
-  auto apply = [&](const Points& x, Points& out) {
-    damping_.apply(body, elastic_.elastic_deformation(), elastic_.inverse_plastic_deformation(), x, Cp_);  // −C x
-    out = x;
-    for (Index n = 0; n < nn; ++n) out.row(n) *= m[n];
-    out -= h * Cp_;
-  };
   // r₀ = rhs − A v at the velocities given: the impulse of every force of
   // the half step, h (f_e + M g − C v). The solve stops when the residual
   // is cg_tolerance of it, both measured as velocities, |r|_M⁻¹ = √(rᵀM⁻¹r):
@@ -157,15 +188,10 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
   // the faster the body moved, for nothing; the plain |r| relative to |r₀|
   // let a heavily damped body keep an error in its rigid motion, where A =
   // M is small beside hC: a block held by friction slid.)
-  auto velocity_norm = [&](const Points& r) {
-    double sum = 0.0;
-    for (Index n = 0; n < nn; ++n) sum += r.row(n).squaredNorm() / m[n];
-    return std::sqrt(sum);
-  };
-  apply(v, Ap_);
+  apply_system(body, h, v, Ap_);
   r_ = rhs - Ap_;
-  free_only(r_);
-  const double impulse = velocity_norm(r_);
+  zero_constrained(r_);
+  const double impulse = velocity_norm(body, r_);
   if (impulse == 0.0) return;  // v already solves it
   if (guess != nullptr && guess->rows() == nn) {
     // The last solve's increment, a half step old: kept if it leaves less
@@ -173,45 +199,27 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
     Points trial = v + *guess;
     for (Index n = 0; n < nn; ++n)
       if (constrained_[at(n)]) trial.row(n) = v.row(n);  // imposed values kept
-    apply(trial, Ap_);
+    apply_system(body, h, trial, Ap_);
     Points r_trial = rhs - Ap_;
-    free_only(r_trial);
-    if (velocity_norm(r_trial) < impulse) {
+    zero_constrained(r_trial);
+    if (velocity_norm(body, r_trial) < impulse) {
       v = trial;
       r_ = r_trial;
     }
   }
-  // Block-Jacobi: each node's own 3×3 block of M + hC inverted. C's blocks
-  // depend on Fe alone, so one set serves the step's second solve and the
-  // next step's first (Fe at xⁿ⁺¹ both). Measured on the armadillo grate,
-  // 8 frames, warm started: 24,436 iterations where mass scaling took 37,979.
-  if (!blocks_fresh_ || blocks_.size() != static_cast<std::size_t>(nn)) {
-    damping_.diagonal_blocks(body, elastic_.elastic_deformation(), elastic_.inverse_plastic_deformation(), blocks_);
-    blocks_fresh_ = true;
-  }
-  inverse_blocks_.resize(at(nn));
-  for (Index n = 0; n < nn; ++n) {
-    // Inverted at unit scale: the cofactors of a block of 1e197 kg overflow.
-    const Eigen::Matrix3d block = h * blocks_[at(n)] + m[n] * Eigen::Matrix3d::Identity();
-    const double size = block.trace() / 3.0;
-    inverse_blocks_[at(n)] = (block / size).inverse() / size;
-  }
-  auto precondition = [&] {
-    z_.resize(nn, 3);
-    for (Index n = 0; n < nn; ++n) z_.row(n) = (inverse_blocks_[at(n)] * r_.row(n).transpose()).transpose();
-  };
+  invert_diagonal_blocks(body, h);
   precondition();
   p_ = z_;
   double rz = dot(r_, z_);
   int iteration = 0;
-  double residual = velocity_norm(r_) / impulse;
+  double residual = velocity_norm(body, r_) / impulse;
   while (residual > settings_.cg_tolerance && iteration < settings_.cg_max_iterations) {
-    apply(p_, Ap_);
-    free_only(Ap_);
+    apply_system(body, h, p_, Ap_);
+    zero_constrained(Ap_);
     const double alpha = rz / dot(p_, Ap_);
     v += alpha * p_;
     r_ -= alpha * Ap_;
-    residual = velocity_norm(r_) / impulse;
+    residual = velocity_norm(body, r_) / impulse;
     ++iteration;
     precondition();
     const double rz_next = dot(r_, z_);

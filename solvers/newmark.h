@@ -77,6 +77,16 @@ class NewmarkIntegrator {
   /// solve_damped's CG on a right-hand side scaled to about unit size.
   void remove_net_residual(const Body& body, const Points& r, Points& v) const;
   void solve_scaled(const Body& body, double h, const Points& rhs, const Points* guess, Points& v, StepStatus& status);
+  /// out = (M + hC) x (Cp_ = −C x on the way).
+  void apply_system(const Body& body, double h, const Points& x, Points& out);
+  /// |r|_M⁻¹ = √(rᵀM⁻¹r): a residual impulse measured as a velocity.
+  [[nodiscard]] static double velocity_norm(const Body& body, const Points& r);
+  /// Rows of constrained nodes set to zero.
+  void zero_constrained(Points& a) const;
+  /// The preconditioner: each node's own block of M + hC, inverted.
+  void invert_diagonal_blocks(const Body& body, double h);
+  /// z_ = the preconditioner applied to r_.
+  void precondition();
   void impose_velocities(const Body& body, double t_next, double dt, Points& v) const;
   Index enforce_ground(Body& body);
 
