@@ -403,59 +403,62 @@ void Simulation::step_together(double max_dt) {
   for (std::size_t i = 0; i < count; ++i) remesh_if_due(i);
 }
 
+void Simulation::build_joint_body() {
+  // The bodies' elements and surfaces side by side, ids offset.
+  const std::size_t count = bodies_.size();
+  Index nodes = 0, elements = 0, vertices = 0, triangles = 0;
+  for (const SimulationBody& b : bodies_) {
+    nodes += b.body.num_nodes(), elements += b.body.num_elements();
+    vertices += b.body.embedding.num_vertices(), triangles += static_cast<Index>(b.body.surface_triangles.rows());
+  }
+  joint_ = Body{};
+  joint_.positions.resize(nodes, 3);
+  joint_.masses.resize(nodes);
+  joint_.tets.resize(elements, 4);
+  joint_.surface_triangles.resize(triangles, 3);
+  joint_.embedding.parent.resize(at(vertices));
+  joint_.embedding.bary.resize(vertices, 4);
+  CollisionGroups groups;
+  groups.vertex_group.resize(at(vertices));
+  groups.element_group.resize(at(elements));
+  groups.between_friction = scene_.body_collisions.friction;
+  node_offset_.assign(count, 0);
+  Index n0 = 0, e0 = 0, v0 = 0, t0 = 0;
+  for (std::size_t i = 0; i < count; ++i) {
+    const Body& body = bodies_[i].body;
+    const auto group = static_cast<std::int32_t>(i);
+    node_offset_[i] = n0;
+    joint_.tets.middleRows(e0, body.num_elements()) = body.tets.array() + n0;
+    const auto nt = static_cast<Index>(body.surface_triangles.rows());
+    joint_.surface_triangles.middleRows(t0, nt) = body.surface_triangles.array() + v0;
+    const Index nv = body.embedding.num_vertices();
+    for (Index v = 0; v < nv; ++v) joint_.embedding.parent[at(v0 + v)] = body.embedding.parent[at(v)] + e0;
+    joint_.embedding.bary.middleRows(v0, nv) = body.embedding.bary;
+    std::fill_n(groups.vertex_group.begin() + v0, nv, group);
+    std::fill_n(groups.element_group.begin() + e0, body.num_elements(), group);
+    groups.self_pairs.push_back(bodies_[i].self_collisions.enabled ? 1 : 0);
+    groups.self_friction.push_back(bodies_[i].self_collisions.friction);
+    n0 += body.num_nodes(), e0 += body.num_elements(), v0 += nv, t0 += nt;
+  }
+  for (std::size_t i = 0; i < count; ++i)  // masses change only where joint_ is rebuilt (a re-mesh, a load)
+    joint_.masses.segment(node_offset_[i], bodies_[i].body.num_nodes()) = bodies_[i].body.masses;
+  joint_collisions_.set_groups(std::move(groups));
+  // One thickness for the stage: the smallest any pair asks for (the
+  // key's, else the smallest body's own; a body's own pairs their own).
+  double smallest = std::numeric_limits<double>::infinity(), smallest_self = smallest;
+  for (std::size_t i = 0; i < count; ++i) {
+    const double own = self_collision_parameters(i).thickness;
+    smallest = std::min(smallest, own);
+    if (bodies_[i].self_collisions.enabled) smallest_self = std::min(smallest_self, own);
+  }
+  const double between = scene_.body_collisions.thickness;
+  joint_thickness_ = std::min(between > 0.0 ? between : smallest, smallest_self);
+  joint_stale_ = false;
+}
+
 void Simulation::collide_bodies(const std::vector<Points>& x_start, double dt) {
   const std::size_t count = bodies_.size();
-  if (joint_stale_) {
-    // The bodies' elements and surfaces side by side, ids offset.
-    Index nodes = 0, elements = 0, vertices = 0, triangles = 0;
-    for (const SimulationBody& b : bodies_) {
-      nodes += b.body.num_nodes(), elements += b.body.num_elements();
-      vertices += b.body.embedding.num_vertices(), triangles += static_cast<Index>(b.body.surface_triangles.rows());
-    }
-    joint_ = Body{};
-    joint_.positions.resize(nodes, 3);
-    joint_.masses.resize(nodes);
-    joint_.tets.resize(elements, 4);
-    joint_.surface_triangles.resize(triangles, 3);
-    joint_.embedding.parent.resize(at(vertices));
-    joint_.embedding.bary.resize(vertices, 4);
-    CollisionGroups groups;
-    groups.vertex_group.resize(at(vertices));
-    groups.element_group.resize(at(elements));
-    groups.between_friction = scene_.body_collisions.friction;
-    node_offset_.assign(count, 0);
-    Index n0 = 0, e0 = 0, v0 = 0, t0 = 0;
-    for (std::size_t i = 0; i < count; ++i) {
-      const Body& body = bodies_[i].body;
-      const auto group = static_cast<std::int32_t>(i);
-      node_offset_[i] = n0;
-      joint_.tets.middleRows(e0, body.num_elements()) = body.tets.array() + n0;
-      const auto nt = static_cast<Index>(body.surface_triangles.rows());
-      joint_.surface_triangles.middleRows(t0, nt) = body.surface_triangles.array() + v0;
-      const Index nv = body.embedding.num_vertices();
-      for (Index v = 0; v < nv; ++v) joint_.embedding.parent[at(v0 + v)] = body.embedding.parent[at(v)] + e0;
-      joint_.embedding.bary.middleRows(v0, nv) = body.embedding.bary;
-      std::fill_n(groups.vertex_group.begin() + v0, nv, group);
-      std::fill_n(groups.element_group.begin() + e0, body.num_elements(), group);
-      groups.self_pairs.push_back(bodies_[i].self_collisions.enabled ? 1 : 0);
-      groups.self_friction.push_back(bodies_[i].self_collisions.friction);
-      n0 += body.num_nodes(), e0 += body.num_elements(), v0 += nv, t0 += nt;
-    }
-    for (std::size_t i = 0; i < count; ++i)  // masses change only where joint_ is rebuilt (a re-mesh, a load)
-      joint_.masses.segment(node_offset_[i], bodies_[i].body.num_nodes()) = bodies_[i].body.masses;
-    joint_collisions_.set_groups(std::move(groups));
-    // One thickness for the stage: the smallest any pair asks for (the
-    // key's, else the smallest body's own; a body's own pairs their own).
-    double smallest = std::numeric_limits<double>::infinity(), smallest_self = smallest;
-    for (std::size_t i = 0; i < count; ++i) {
-      const double own = self_collision_parameters(i).thickness;
-      smallest = std::min(smallest, own);
-      if (bodies_[i].self_collisions.enabled) smallest_self = std::min(smallest_self, own);
-    }
-    const double between = scene_.body_collisions.thickness;
-    joint_thickness_ = std::min(between > 0.0 ? between : smallest, smallest_self);
-    joint_stale_ = false;
-  }
+  if (joint_stale_) build_joint_body();
   SelfCollisionParameters parameters;
   parameters.thickness = joint_thickness_;
 

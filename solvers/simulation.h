@@ -130,6 +130,9 @@ class Simulation {
   void step_together(double max_dt);
   /// Collisions between bodies (and within each) over the common step from
   /// x_start to the bodies' positions (Bridson et al. 2002, as one surface).
+  /// joint_: every body's elements, masses and surface side by side (ids
+  /// offset, node_offset_ per body), their collision groups and thickness.
+  void build_joint_body();
   void collide_bodies(const std::vector<Points>& x_start, double dt);
   void check_state(std::size_t i) const;
   void remesh_if_due(std::size_t i);
