@@ -1,9 +1,11 @@
 #include "core/body.h"
 
 #include <Eigen/SVD>
+#include <algorithm>
 #include <array>
 
 #include "core/log.h"
+#include "core/parallel.h"
 #include "core/surface_geometry.h"
 
 namespace goo {
@@ -90,6 +92,46 @@ double kinetic_energy(const Body& body) {
   CompensatedSum e;
   for (Index n = 0; n < body.num_nodes(); ++n) e.add(0.5 * body.masses[n] * body.velocities.row(n).squaredNorm());
   return e.value();
+}
+
+void embed_boundary(Body& body) {
+  // Faces opposite corner k of a positively oriented tet, outward.
+  static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
+  const Tets neighbours = face_neighbours(body.tets);
+  struct Face {
+    std::array<Index, 3> key;  // its nodes, sorted: the faces' order
+    Index e;
+    int k;
+  };
+  std::vector<Face> faces;
+  for (Index e = 0; e < body.num_elements(); ++e)
+    for (int k = 0; k < 4; ++k)
+      if (neighbours(e, k) < 0) {
+        std::array<Index, 3> key{body.tets(e, kFace[k][0]), body.tets(e, kFace[k][1]), body.tets(e, kFace[k][2])};
+        std::sort(key.begin(), key.end());
+        faces.push_back({key, e, k});
+      }
+  std::sort(faces.begin(), faces.end(), [](const Face& a, const Face& b) { return a.key < b.key; });
+  std::vector<Index> vertex_of(at(body.num_nodes()), -1);
+  std::vector<Index> nodes;
+  body.surface_triangles.resize(static_cast<Eigen::Index>(faces.size()), 3);
+  for (std::size_t t = 0; t < faces.size(); ++t)
+    for (int c = 0; c < 3; ++c) {
+      const Index n = body.tets(faces[t].e, kFace[faces[t].k][c]);
+      if (vertex_of[at(n)] < 0) {
+        vertex_of[at(n)] = static_cast<Index>(nodes.size());
+        nodes.push_back(n);
+      }
+      body.surface_triangles(static_cast<Eigen::Index>(t), c) = vertex_of[at(n)];
+    }
+  Embedding& em = body.embedding;
+  em.parent.resize(nodes.size());
+  em.bary = decltype(em.bary)::Zero(static_cast<Eigen::Index>(nodes.size()), 4);
+  for (std::size_t v = 0; v < nodes.size(); ++v) {
+    const Index corner = body.incidence.corners[at(body.incidence.offsets[at(nodes[v])])];
+    em.parent[v] = corner / 4;
+    em.bary(static_cast<Eigen::Index>(v), corner % 4) = 1.0;
+  }
 }
 
 }  // namespace goo

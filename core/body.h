@@ -66,6 +66,12 @@ struct Body {
 /// and oriented first (check_and_orient); the material is validated.
 Body make_body(TetMesh mesh, const Material& material, std::string_view source = "body");
 
+/// The boundary faces of the body's tetrahedra (face_neighbours), outward,
+/// as its embedded surface: each boundary node is a surface vertex on a
+/// corner of its first element (barycentric coordinate 1 there), numbered
+/// in the order of the faces' sorted nodes.
+void embed_boundary(Body& body);
+
 /// Lumped masses: each element gives ρ W det(Fp) / 4 to each of its nodes.
 void lump_masses(Body& body);
 

@@ -1,7 +1,7 @@
 #pragma once
 // Kinematic constraints of a body: pinned nodes, nodes moved along a
-// prescribed path, and a ground half-space nodes cannot cross (a stand-in
-// until collisions on the embedded surface land).
+// prescribed path, and what its embedded surface collides with (the floor
+// is an obstacle, a half-space; core/obstacles.h).
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -20,26 +20,17 @@ struct PrescribedMotion {
   std::function<Eigen::Vector3d(Index node, const Eigen::Vector3d& rest, double t)> position;
 };
 
-/// The region n·x ≥ offset (n unit). Nodes below are pushed back onto the
-/// plane; their inward normal velocity is removed and their tangential
-/// velocity reduced by friction × the removed normal speed (Coulomb).
+/// The region n·x ≥ offset (n unit) with a Coulomb friction coefficient: a
+/// scene's floor, which the simulation turns into a half-space obstacle.
 struct HalfSpace {
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
   double offset = 0.0;
   double friction = 0.0;
 };
 
-struct Body;
-
-/// Pushes the free nodes below the ground back onto it, removing their inward
-/// normal velocity and reducing their tangential velocity by friction × the
-/// removed normal speed (Coulomb). Returns the nodes in contact.
-Index enforce_ground(Body& body, const HalfSpace& ground, const std::vector<std::uint8_t>& fixed);
-
 struct Constraints {
   std::vector<Index> pinned;
   std::vector<PrescribedMotion> prescribed;
-  std::optional<HalfSpace> ground;
   /// Obstacles the embedded surface collides with (bodies with a surface).
   std::vector<Obstacle> obstacles;
   /// Self-collisions of the embedded surface, when on.

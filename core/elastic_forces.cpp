@@ -12,13 +12,7 @@
 namespace goo {
 
 Eigen::Matrix3d deformation_gradient(const Body& body, const Points& x, Index e) {
-  const auto& t = body.tets;
-  const Eigen::Vector3d x0 = x.row(t(e, 0));
-  Eigen::Matrix3d Ds;
-  Ds.col(0) = x.row(t(e, 1)).transpose() - x0;
-  Ds.col(1) = x.row(t(e, 2)).transpose() - x0;
-  Ds.col(2) = x.row(t(e, 3)).transpose() - x0;
-  return Ds * body.Dm_inv[at(e)];
+  return deformation_gradient(body.Dm_inv[at(e)], element_corners(body, x, e));
 }
 
 void gather_to_nodes(const NodeIncidence& incidence, const std::vector<Matrix34>& per_element, Points& out) {
@@ -61,11 +55,7 @@ void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Poi
         flowed_[at(e)] = 1;
       }
       const double stress_free_volume = body.rest_volumes[e] * Fp.determinant();
-      const Eigen::Matrix3d P = svd.U * energy.dpsi(svd.sigma).asDiagonal() * svd.V.transpose();
-      const Eigen::Matrix3d H = -stress_free_volume * P * Fp_inv.transpose() * Dm_inv.transpose();
-      Matrix34& out = element_forces_[at(e)];
-      out.col(0) = -H.rowwise().sum();
-      out.rightCols<3>() = H;
+      element_forces_[at(e)] = element_forces(energy, svd, Fp_inv, Dm_inv, stress_free_volume);
       Fe_[at(e)] = svd.U * svd.sigma.asDiagonal() * svd.V.transpose();
       Fp_inv_[at(e)] = Fp_inv;
 
@@ -86,11 +76,8 @@ void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Poi
 double elastic_energy(const Body& body, const Points& x) {
   const IsotropicEnergy energy(body.material);
   CompensatedSum total;
-  for (Index e = 0; e < body.num_elements(); ++e) {
-    const Eigen::Matrix3d& Fp = body.Fp[at(e)];
-    const Eigen::Matrix3d Fe = deformation_gradient(body, x, e) * Fp.inverse();
-    total.add(body.rest_volumes[e] * Fp.determinant() * energy.psi(svd3(Fe).sigma));
-  }
+  for (Index e = 0; e < body.num_elements(); ++e)
+    total.add(element_energy(energy, ElementRest::of(body, e), element_corners(body, x, e)));
   return total.value();
 }
 

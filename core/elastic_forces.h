@@ -5,11 +5,9 @@
 #include <vector>
 
 #include "core/body.h"
-#include "core/elasticity.h"
+#include "core/element_elasticity.h"
 
 namespace goo {
-
-using Matrix34 = Eigen::Matrix<double, 3, 4>;
 
 /// Sums per-element corner values into nodes through the incidence order:
 /// out.row(n) = Σ per_element[e].col(k) over the corners (e, k) of node n.
@@ -20,8 +18,8 @@ class ElasticForces {
   /// f (#N×3, N) = elastic forces at positions x. If plastic_dt > 0, each
   /// element first flows plastically for a step of that length (reusing its
   /// SVD), updating body.Fp and body.alpha. Records each element's Fe and
-  /// Fp⁻¹ (for damping) and its explicit time-step bound. Element e's nodal forces are H = −W det(Fp) P(Fe) Fp⁻ᵀ Dm⁻ᵀ,
-  /// minus their sum on node 0 (algorithms.md, "Kinematics").
+  /// Fp⁻¹ (for damping) and its explicit time-step bound. Element e's
+  /// nodal forces are element_forces (core/element_elasticity.h).
   void evaluate(Body& body, const Points& x, double plastic_dt, Points& f);
 
   /// Fe and Fp⁻¹ of every element at the last evaluation (after plastic
@@ -46,7 +44,7 @@ class ElasticForces {
   Index plastic_count_ = 0;
 };
 
-/// Σ_e W det(Fp) ψ(Fe) at positions x, J.
+/// Σ_e element_energy at positions x (compensated sum), J.
 double elastic_energy(const Body& body, const Points& x);
 
 /// Deformation gradient F = Ds Dm⁻¹ of element e at positions x.

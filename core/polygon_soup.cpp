@@ -1,3 +1,4 @@
+#include "core/parallel.h"
 #include "core/polygon_soup.h"
 
 #include <array>
@@ -10,10 +11,6 @@
 
 namespace goo {
 namespace {
-
-std::size_t at(Index i) {
-  return static_cast<std::size_t>(i);
-}
 
 double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   return a.x() * b.y() - a.y() * b.x();

@@ -1,3 +1,4 @@
+#include "core/parallel.h"
 #include "core/surface_check.h"
 
 #include <fmt/format.h>
@@ -17,10 +18,6 @@ namespace goo {
 namespace {
 
 constexpr double kEps = std::numeric_limits<double>::epsilon();
-
-std::size_t at(Index i) {
-  return static_cast<std::size_t>(i);
-}
 
 /// One directed edge of a triangle: from corner k to corner k+1 of triangle t.
 struct HalfEdge {

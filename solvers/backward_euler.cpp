@@ -127,7 +127,7 @@ struct BackwardEulerIntegrator::Potential {
       tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
         for (Index e = r.begin(); e != r.end(); ++e) {
           const Eigen::Matrix3d Fe = deformation_gradient(body, xn, e) * body.Fp[at(e)].inverse();
-          damping[at(e)] = element_damping_matrix(body, Fe, e);
+          damping[at(e)] = element_damping_matrix(body.material.viscosity, ElementRest::of(body, e), Fe);
         }
       });
     }
@@ -214,6 +214,7 @@ bool BackwardEulerIntegrator::newton_direction(const Body& body, const Potential
   // indefinite fixed-corotated Hessians.)
   const Index nn = body.num_nodes(), ne = body.num_elements();
   const double dt = potential.dt;
+  const IsotropicEnergy energy(body.material);
   Eigen::VectorXd diagonal(3 * nn);
   for (Index n = 0; n < nn; ++n) diagonal.segment<3>(3 * n).setConstant(body.masses[n] / (dt * dt));
   bool solved = false;
@@ -226,7 +227,7 @@ bool BackwardEulerIntegrator::newton_direction(const Body& body, const Potential
     blocks_.resize(at(ne));
     tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
       for (Index e = r.begin(); e != r.end(); ++e) {
-        blocks_[at(e)] = element_elastic_hessian(body, x, e, project);
+        blocks_[at(e)] = element_hessian(energy, ElementRest::of(body, e), element_corners(body, x, e), project);
         if (potential.viscous) blocks_[at(e)] += potential.damping[at(e)] / dt;
       }
     });
@@ -379,7 +380,7 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
   if (body.material.incompressible) status.volume = volume_.project(body, x0, fixed_, dt, dt);
   times_.volume += timer.lap();
   // Smoothing (W&T sec. 7, as Newmark's), plastic flow after convergence,
-  // then the ground and the surface.
+  // then the surface collisions.
   if (settings_.smoothing > 0.0 && EmbeddedTension::active(body))
     tension_.smooth(body, std::min(0.5, settings_.smoothing * body.material.surface_tension * dt));
   times_.surface += timer.lap();
@@ -388,7 +389,6 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
   status.plastic_elements = elastic_.plastic_elements();
   times_.forces += timer.lap();
   const double t_next = time_ + dt;
-  if (constraints_.ground) enforce_ground(body, *constraints_.ground, fixed_);
   double restoring = 0.0;  // incompressible: the volume the contacts take given back at once
   status.collisions += body.material.incompressible
                            ? resolve_positions_keeping_volume(body, collisions_, volume_, constraints_.obstacles, t_next,

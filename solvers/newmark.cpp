@@ -7,15 +7,12 @@
 #include <limits>
 #include <utility>
 
+#include "core/parallel.h"
 #include "core/error.h"
 #include "solvers/stepping.h"
 
 namespace goo {
 namespace {
-
-std::size_t at(Index i) {
-  return static_cast<std::size_t>(i);
-}
 
 /// Σ a∘b over all entries, in a fixed order (deterministic).
 double dot(const Points& a, const Points& b) {
@@ -39,7 +36,6 @@ NewmarkIntegrator::NewmarkIntegrator(NewmarkSettings settings, Constraints const
   if (!(settings_.max_strain_per_step > 0.0)) {
     throw Error(fmt::format("newmark.max_strain_per_step must be positive, got {}", settings_.max_strain_per_step));
   }
-  if (constraints_.ground) constraints_.ground->normal.normalize();
 }
 
 void NewmarkIntegrator::ensure_forces(Body& body) {
@@ -270,10 +266,6 @@ void NewmarkIntegrator::remove_net_residual(const Body& body, const Points& r, P
   }
 }
 
-Index NewmarkIntegrator::enforce_ground(Body& body) {
-  return constraints_.ground ? goo::enforce_ground(body, *constraints_.ground, constrained_) : 0;
-}
-
 double NewmarkIntegrator::next_time_step(Body& body, double max_dt) {
   ensure_forces(body);
   const double dt = std::min(stable_time_step(body), max_dt);
@@ -308,7 +300,7 @@ void NewmarkIntegrator::begin_step(Body& body, double dt) {
   times_.collisions += timer.lap();
 
   // 2. xⁿ⁺¹ = xⁿ + Δt v½; the surface smoothed and re-embedded (W&T
-  // sec. 7, fig. 8); then the ground and the position collisions.
+  // sec. 7, fig. 8); then the position collisions.
   const bool incompressible = body.material.incompressible;
   const Points x_start = constraints_.self_collisions || incompressible ? body.positions : Points();
   body.positions += dt * body.velocities;
@@ -320,7 +312,6 @@ void NewmarkIntegrator::begin_step(Body& body, double dt) {
   if (has_tension(body) && settings_.smoothing > 0.0)
     tension_.smooth(body, std::min(0.5, settings_.smoothing * body.material.surface_tension * dt));
   times_.surface += timer.lap();
-  status.ground_contacts = enforce_ground(body);
   if (incompressible) {  // the volume the contacts take given back at once
     double restoring = 0.0;
     status.collisions += resolve_positions_keeping_volume(body, collisions_, volume_, obstacles, t_next, constrained_,
@@ -373,7 +364,6 @@ StepStatus NewmarkIntegrator::finish_step(Body& body) {
   times_.damping += timer.lap();
   if (incompressible) status.volume += volume_.project_velocities(body, constrained_, dt, h, forces_);
   times_.volume += timer.lap();
-  enforce_ground(body);
   // vⁿ⁺¹ must not drive the surface into an obstacle over the next step.
   status.collisions += collisions_.resolve_velocities(body, body.velocities, obstacles, t_next, dt, constrained_).resolved;
   times_.collisions += timer.lap();

@@ -22,7 +22,6 @@ struct StepStatus {
   double dt = 0.0;  ///< the step taken, s
   DampingSolveStats damping;  ///< both damping solves together
   Index plastic_elements = 0;
-  Index ground_contacts = 0;
   Index collisions = 0;  ///< element corrections of the embedded surface, positions and velocities
   SelfCollisionStats self_collisions;  ///< the surface against itself
   VolumeProjectionStats volume;        ///< incompressible materials
@@ -88,7 +87,6 @@ class NewmarkIntegrator {
   /// z_ = the preconditioner applied to r_.
   void precondition();
   void impose_velocities(const Body& body, double t_next, double dt, Points& v) const;
-  Index enforce_ground(Body& body);
 
   NewmarkSettings settings_;
   Constraints constraints_;

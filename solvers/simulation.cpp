@@ -29,61 +29,6 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-/// The boundary faces of a tetrahedral mesh, outward, as an embedded
-/// surface: each boundary node is a surface vertex sitting on a corner of
-/// its first element (barycentric coordinate 1 there).
-void embed_boundary(Body& body) {
-  // Faces opposite corner k of a positively oriented tet, outward.
-  static constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
-  struct Face {
-    std::array<Index, 3> key;
-    Index e;
-    int k;
-  };
-  std::vector<Face> faces;
-  faces.reserve(4 * at(body.num_elements()));
-  for (Index e = 0; e < body.num_elements(); ++e)
-    for (int k = 0; k < 4; ++k) {
-      std::array<Index, 3> key{body.tets(e, kFace[k][0]), body.tets(e, kFace[k][1]), body.tets(e, kFace[k][2])};
-      std::sort(key.begin(), key.end());
-      faces.push_back({key, e, k});
-    }
-  std::sort(faces.begin(), faces.end(), [](const Face& a, const Face& b) {
-    return a.key != b.key ? a.key < b.key : std::pair(a.e, a.k) < std::pair(b.e, b.k);
-  });
-  std::vector<Index> vertex_of(at(body.num_nodes()), -1);
-  std::vector<Index> nodes;
-  std::vector<std::array<Index, 3>> triangles;
-  for (std::size_t i = 0; i < faces.size();) {
-    std::size_t j = i;
-    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
-    if (j - i == 1) {
-      std::array<Index, 3> t{};
-      for (int c = 0; c < 3; ++c) {
-        const Index n = body.tets(faces[i].e, kFace[faces[i].k][c]);
-        if (vertex_of[at(n)] < 0) {
-          vertex_of[at(n)] = static_cast<Index>(nodes.size());
-          nodes.push_back(n);
-        }
-        t[static_cast<std::size_t>(c)] = vertex_of[at(n)];
-      }
-      triangles.push_back(t);
-    }
-    i = j;
-  }
-  body.surface_triangles.resize(static_cast<Eigen::Index>(triangles.size()), 3);
-  for (std::size_t t = 0; t < triangles.size(); ++t)
-    for (int c = 0; c < 3; ++c) body.surface_triangles(static_cast<Eigen::Index>(t), c) = triangles[t][at(c)];
-  Embedding& em = body.embedding;
-  em.parent.resize(nodes.size());
-  em.bary = decltype(em.bary)::Zero(static_cast<Eigen::Index>(nodes.size()), 4);
-  for (std::size_t v = 0; v < nodes.size(); ++v) {
-    const Index corner = body.incidence.corners[at(body.incidence.offsets[at(nodes[v])])];
-    em.parent[v] = corner / 4;
-    em.bary(static_cast<Eigen::Index>(v), corner % 4) = 1.0;
-  }
-}
-
 std::vector<Index> nodes_in(const Points& x, const std::vector<PinnedRegion>& regions) {
   std::vector<Index> out;
   for (Index n = 0; n < static_cast<Index>(x.rows()); ++n)

@@ -1,29 +1,13 @@
 #include "solvers/sparse_hessian.h"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 
-#include "core/elastic_forces.h"
-#include "core/elasticity.h"
 #include "core/parallel.h"
-#include "core/svd3.h"
 
 namespace goo {
 namespace {
 
 constexpr int kLowerEntries = 78;  // 12 · 13 / 2
-
-/// G = ∂vec(Fe)/∂x (9×12, vec column-major) for Fe = Ds B, B = Dm⁻¹ Fp⁻¹:
-/// ∂Fe_il/∂x_ji = b_j(l) with b_j = row j−1 of B (j ≥ 1), b_0 = −Σ rows.
-Eigen::Matrix<double, 9, 12> fe_gradient(const Eigen::Matrix3d& B) {
-  Eigen::Matrix<double, 9, 12> G = Eigen::Matrix<double, 9, 12>::Zero();
-  for (int j = 0; j < 4; ++j) {
-    const Eigen::RowVector3d b = j == 0 ? Eigen::RowVector3d(-B.colwise().sum()) : Eigen::RowVector3d(B.row(j - 1));
-    for (int l = 0; l < 3; ++l)
-      for (int i = 0; i < 3; ++i) G(3 * l + i, 3 * j + i) = b[l];
-  }
-  return G;
-}
 
 }  // namespace
 
@@ -128,40 +112,6 @@ void SparseHessian::fix_nodes(const std::vector<std::uint8_t>& fixed) {
       const bool col_fixed = fixed[at(c / 3)] != 0;
       if (row_fixed || col_fixed) it.valueRef() = it.row() == c ? 1.0 : 0.0;
     }
-}
-
-Matrix12 element_elastic_hessian(const Body& body, const Points& x, Index e, bool project) {
-  const Eigen::Matrix3d& Fp = body.Fp[at(e)];
-  const Eigen::Matrix3d Fp_inv = Fp.inverse();
-  const Eigen::Matrix3d Fe = deformation_gradient(body, x, e) * Fp_inv;
-  const IsotropicEnergy energy(body.material);
-  Matrix9d A = first_piola_derivative(energy, svd3(Fe));
-  A = 0.5 * (A + A.transpose());
-  if (project) {
-    const Eigen::SelfAdjointEigenSolver<Matrix9d> eig(A);
-    A = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).asDiagonal() * eig.eigenvectors().transpose();
-  }
-  const Eigen::Matrix<double, 9, 12> G = fe_gradient(body.Dm_inv[at(e)] * Fp_inv);
-  const double volume = body.rest_volumes[e] * Fp.determinant();
-  return volume * G.transpose() * A * G;
-}
-
-Matrix12 element_damping_matrix(const Body& body, const Eigen::Matrix3d& Fe, Index e) {
-  const Eigen::Matrix3d& Fp = body.Fp[at(e)];
-  const Eigen::Matrix3d Fp_inv = Fp.inverse();
-  const Eigen::Matrix<double, 9, 12> G = fe_gradient(body.Dm_inv[at(e)] * Fp_inv);
-  // L vec(X) = vec(sym(Feᵀ X)).
-  Matrix9d L = Matrix9d::Zero();
-  for (int c = 0; c < 9; ++c) {
-    Eigen::Matrix3d X = Eigen::Matrix3d::Zero();
-    X(c % 3, c / 3) = 1.0;
-    const Eigen::Matrix3d M = Fe.transpose() * X;
-    const Eigen::Matrix3d S = 0.5 * (M + M.transpose());
-    L.col(c) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(S.data());
-  }
-  const Eigen::Matrix<double, 9, 12> LG = L * G;
-  const double volume = body.rest_volumes[e] * Fp.determinant();
-  return 2.0 * volume * body.material.viscosity * LG.transpose() * LG;
 }
 
 }  // namespace goo

@@ -8,11 +8,10 @@
 #include <vector>
 
 #include "core/body.h"
+#include "core/element_elasticity.h"
 #include "solvers/embedded_tension.h"
 
 namespace goo {
-
-using Matrix12 = Eigen::Matrix<double, 12, 12>;
 
 /// Lower triangle (row ≥ column) of a symmetric 3N×3N matrix whose nonzeros
 /// are the 3×3 blocks of node pairs sharing an element.
@@ -50,15 +49,5 @@ class SparseHessian {
   std::vector<Index> diagonal_slots_;   // 3N
   int builds_ = 0;
 };
-
-/// Element e's 12×12 elastic Hessian at positions x: V Gᵀ (dP/dF)⁺ G with
-/// V = W det Fp, G = ∂vec(Fe)/∂x, and (dP/dF)⁺ the 9×9 dP/dF with negative
-/// eigenvalues clamped to zero, so the block is positive semi-definite.
-Matrix12 element_elastic_hessian(const Body& body, const Points& x, Index e, bool project = true);
-
-/// Element e's 12×12 damping matrix C_e = 2 V β (L G)ᵀ (L G) with Fe frozen
-/// (L: δFe ↦ sym(Feᵀ δFe)): the dissipation is ½ vᵀ C_e v and the viscous
-/// force −C_e v (core/damping.h). Positive semi-definite.
-Matrix12 element_damping_matrix(const Body& body, const Eigen::Matrix3d& Fe, Index e);
 
 }  // namespace goo

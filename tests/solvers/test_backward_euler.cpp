@@ -1,10 +1,8 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
-#include <Eigen/Eigenvalues>
 #include <random>
 
-#include "core/damping.h"
 #include "core/elastic_forces.h"
 #include "core/tet_mesh.h"
 #include "solvers/backward_euler.h"
@@ -29,94 +27,6 @@ Material material(ElasticModel model, double E, double nu, double viscosity = 0.
 
 Body box(const Material& m, int cells, double size = 0.3) {
   return make_body(make_box_tets(Eigen::Vector3d::Constant(size), Eigen::Vector3i::Constant(cells)), m);
-}
-
-/// One element, deformed at random (possibly inverted), with a random
-/// volume-preserving plastic state.
-Body random_element(const Material& m, std::mt19937& rng, double amount) {
-  Body body = make_body(test::corner_tetrahedron(), m);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  for (Index n = 0; n < 4; ++n)
-    for (int k = 0; k < 3; ++k) body.positions(n, k) += amount * u(rng);
-  Eigen::Matrix3d P = Eigen::Matrix3d::Identity();
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) P(i, j) += 0.1 * u(rng);
-  body.Fp[0] = P / std::cbrt(P.determinant());
-  return body;
-}
-
-// The unprojected element Hessian is minus the derivative of the element's
-// forces (central differences: error O(δ²) + ε f/δ).
-TEST(BackwardEuler, ElementHessianMatchesFiniteDifferencesOfTheForces) {
-  std::mt19937 rng(1);
-  for (const ElasticModel model : kModels) {
-    for (int trial = 0; trial < 5; ++trial) {
-      const Body body = random_element(material(model, 1e5, 0.3), rng, 0.2);
-      const Matrix12 K = element_elastic_hessian(body, body.positions, 0, false);
-      Body work = body;
-      ElasticForces forces;
-      Points plus, minus;
-      const double delta = 1e-6;
-      Matrix12 fd;
-      for (int c = 0; c < 12; ++c) {
-        Points x = body.positions;
-        x(c / 3, c % 3) += delta;
-        forces.evaluate(work, x, 0.0, plus);
-        x(c / 3, c % 3) -= 2.0 * delta;
-        forces.evaluate(work, x, 0.0, minus);
-        for (int r = 0; r < 12; ++r) fd(r, c) = -(plus(r / 3, r % 3) - minus(r / 3, r % 3)) / (2.0 * delta);
-      }
-      EXPECT_LT((K - fd).norm(), 1e-5 * K.norm()) << "model " << static_cast<int>(model) << " trial " << trial;
-    }
-  }
-}
-
-// Projected to positive semi-definite, also for inverted elements; and
-// unchanged where the unprojected one was already so (at rest).
-TEST(BackwardEuler, ProjectedHessianIsPositiveSemiDefinite) {
-  std::mt19937 rng(2);
-  int inverted = 0;
-  for (const ElasticModel model : kModels)
-    for (int trial = 0; trial < 40; ++trial) {
-      const Body body = random_element(material(model, 1e5, 0.45), rng, 0.8);
-      inverted += signed_volume(body.positions, body.tets, 0) < 0.0;
-      const Matrix12 K = element_elastic_hessian(body, body.positions, 0, true);
-      const double lowest = Eigen::SelfAdjointEigenSolver<Matrix12>(K).eigenvalues().minCoeff();
-      EXPECT_GE(lowest, -1e-10 * K.norm());
-    }
-  EXPECT_GT(inverted, 10);
-  Body rest = box(material(ElasticModel::neo_hookean, 1e5, 0.3), 1);
-  for (Index e = 0; e < rest.num_elements(); ++e)
-    EXPECT_LT((element_elastic_hessian(rest, rest.positions, e, true) -
-               element_elastic_hessian(rest, rest.positions, e, false))
-                  .norm(),
-              1e-9 * element_elastic_hessian(rest, rest.positions, e, false).norm());
-}
-
-// C_e is the damping: −Σ C_e v equals the viscous forces of core/damping.h.
-TEST(BackwardEuler, DampingMatrixReproducesTheViscousForces) {
-  std::mt19937 rng(3);
-  Body body = box(material(ElasticModel::fixed_corotated, 1e5, 0.3, 7.0), 2);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  for (Index n = 0; n < body.num_nodes(); ++n)
-    for (int k = 0; k < 3; ++k) body.positions(n, k) += 0.01 * u(rng);
-  Points v(body.num_nodes(), 3);
-  for (Index n = 0; n < body.num_nodes(); ++n) v.row(n) = Eigen::RowVector3d(u(rng), u(rng), u(rng));
-  ElasticForces forces;
-  Points f;
-  forces.evaluate(body, body.positions, 0.0, f);
-  Damping damping;
-  Points expected;
-  damping.apply(body, forces.elastic_deformation(), forces.inverse_plastic_deformation(), v, expected);
-  Points got = Points::Zero(body.num_nodes(), 3);
-  for (Index e = 0; e < body.num_elements(); ++e) {
-    const Matrix12 C = element_damping_matrix(body, forces.elastic_deformation()[static_cast<std::size_t>(e)], e);
-    Eigen::Matrix<double, 12, 1> ve;
-    for (int k = 0; k < 4; ++k) ve.segment<3>(3 * k) = v.row(body.tets(e, k)).transpose();
-    const Eigen::Matrix<double, 12, 1> fe = -C * ve;
-    for (int k = 0; k < 4; ++k) got.row(body.tets(e, k)) += fe.segment<3>(3 * k).transpose();
-  }
-  EXPECT_TRUE(test::matrices_near(got, expected, 1e-12 * expected.cwiseAbs().maxCoeff()));
 }
 
 double total_energy(const Body& body, double g) {

@@ -17,6 +17,7 @@
 #include "solvers/newmark.h"
 #include "solvers/remesh.h"
 #include "solvers/sparse_hessian.h"
+#include "tests/common/finite_differences.h"
 #include "tests/solvers/tense_cube.h"
 
 namespace goo {
@@ -42,14 +43,7 @@ TEST(ImplicitTension, TriangleAreaHessianMatchesFiniteDifferences) {
     x << 0, 0, 0, 1, 0, 0, 0, 1, 0;
     for (int i = 0; i < 9; ++i) x[i] += 0.3 * u(rng);
     const Matrix9d H = triangle_area_hessian(x.segment<3>(0), x.segment<3>(3), x.segment<3>(6));
-    Matrix9d fd;
-    const double delta = 1e-5;
-    for (int j = 0; j < 9; ++j) {
-      Eigen::Matrix<double, 9, 1> plus = x, minus = x;
-      plus[j] += delta;
-      minus[j] -= delta;
-      fd.col(j) = (area_gradient(plus) - area_gradient(minus)) / (2.0 * delta);
-    }
+    const Eigen::MatrixXd fd = test::central_differences(area_gradient, x, 1e-5);
     EXPECT_LT((H - fd).cwiseAbs().maxCoeff(), 1e-8) << "trial " << trial;
     EXPECT_LT((H - H.transpose()).cwiseAbs().maxCoeff(), 1e-15);
     // Rigid translations do not change the area: H annihilates them.
@@ -109,7 +103,6 @@ TEST(ImplicitTension, AssembledSurfaceHessianMatchesFiniteDifferences) {
   Body body = tense_body(sigma);
   EmbeddedTension tension;
   ASSERT_TRUE(EmbeddedTension::active(body));
-  const Index nn = body.num_nodes();
   const SurfaceNodes nodes = SurfaceNodes::of(body);
   int repeated = 0, unrelated = 0;  // triangles with repeated nodes; with corners in elements sharing no node
   for (Index t = 0; t < nodes.num_triangles(); ++t) {
@@ -128,17 +121,10 @@ TEST(ImplicitTension, AssembledSurfaceHessianMatchesFiniteDifferences) {
   const Eigen::VectorXd g = surface_gradient(tension, body, body.positions);
   const Eigen::MatrixXd H = assembled_surface_hessian(body, false);
   const double delta = 1e-6;  // positions ~0.1 m, triangles ~0.05 m
-  double g_error = 0.0, h_error = 0.0;
-  for (Index i = 0; i < 3 * nn; ++i) {
-    Points plus = body.positions, minus = body.positions;
-    plus.data()[i] += delta;
-    minus.data()[i] -= delta;
-    const double dE = (EmbeddedTension::energy(body, plus) - EmbeddedTension::energy(body, minus)) / (2.0 * delta);
-    g_error = std::max(g_error, std::abs(dE - g[i]));
-    const Eigen::VectorXd column =
-        (surface_gradient(tension, body, plus) - surface_gradient(tension, body, minus)) / (2.0 * delta);
-    h_error = std::max(h_error, (column - H.col(i)).cwiseAbs().maxCoeff());
-  }
+  const auto energy = [&](const Points& y) { return EmbeddedTension::energy(body, y); };
+  const auto gradient = [&](const Points& y) { return surface_gradient(tension, body, y); };
+  const double g_error = (test::central_differences(energy, body.positions, delta).transpose() - g).cwiseAbs().maxCoeff();
+  const double h_error = (test::central_differences(gradient, body.positions, delta) - H).cwiseAbs().maxCoeff();
   // Scales: gradient entries ~ σ h = 0.03 N, Hessian entries ~ σ = 0.5 N/m;
   // the differences are good to δ² σ/h² ≈ 1e-10 plus round-off ε σ h²/δ ≈ 1e-13.
   EXPECT_LT(g_error, 1e-9 * sigma);

@@ -208,17 +208,22 @@ double mechanical_energy(const Body& body, const Eigen::Vector3d& gravity) {
   return total_energy(body) + potential;
 }
 
-TEST(Newmark, GroundIsNeverCrossedAndContactOnlyDissipates) {
+// The floor as the scenes have it: a half-space obstacle that the body's
+// surface (its boundary faces, every boundary node a surface vertex)
+// collides with.
+TEST(Newmark, TheFloorIsNeverCrossedAndContactOnlyDissipates) {
   Body body = make_cube(ElasticModel::fixed_corotated, 2, 0.0);
   body.positions.col(2).array() += 0.1;
+  embed_boundary(body);
   Constraints constraints;
-  constraints.ground = HalfSpace{};
+  constraints.obstacles.push_back(
+      Obstacle{"ground", make_half_space(Eigen::Vector3d::UnitZ(), 0.0), RigidMotion{}, 0.0});
   const NewmarkSettings settings;
   NewmarkIntegrator integrator(settings, constraints);
   const double e0 = mechanical_energy(body, settings.gravity);
   Index contacts = 0;
   while (integrator.time() < 1.0) {
-    contacts += integrator.step(body, 1.0 - integrator.time()).ground_contacts;
+    contacts += integrator.step(body, 1.0 - integrator.time()).collisions;
     ASSERT_GE(body.positions.col(2).minCoeff(), 0.0);
   }
   EXPECT_GT(contacts, 0);
