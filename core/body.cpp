@@ -51,6 +51,7 @@ Body make_body(TetMesh mesh, const Material& material, std::string_view source) 
     const Eigen::Vector3d s = Eigen::JacobiSVD<Eigen::Matrix3d>(Dm).singularValues();
     body.rest_condition[e] = s[0] / s[2];
   }
+  body.rest_material_volume = body.rest_volumes.sum();  // the material fills its elements
   body.incidence = NodeIncidence::build(body.tets, body.num_nodes());
   lump_masses(body);
   return body;

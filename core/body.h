@@ -44,8 +44,9 @@ struct Body {
 
   NodeIncidence incidence;
   /// The stress-free volume of the material, Σ W det Fp over the solid, m³:
-  /// invariant in time (plastic flow is isochoric), so a re-mesh restores it
-  /// (0: not tracked).
+  /// invariant in time (plastic flow is isochoric), so a re-mesh restores it.
+  /// A body made from a tetrahedral mesh starts with Σ W (the material fills
+  /// its elements); a lattice body with its solid's volume.
   double rest_material_volume = 0.0;
 
   // The embedded surface (empty for a body without one).

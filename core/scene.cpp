@@ -3,7 +3,15 @@
 namespace goo {
 
 std::string_view to_string(IntegratorKind kind) {
-  return kind == IntegratorKind::newmark ? "newmark" : "backward_euler";
+  switch (kind) {
+    case IntegratorKind::newmark:
+      return "newmark";
+    case IntegratorKind::backward_euler:
+      return "backward_euler";
+    case IntegratorKind::statics:
+      return "static";
+  }
+  return "unknown";
 }
 
 }  // namespace goo

@@ -16,7 +16,9 @@
 
 namespace goo {
 
-enum class IntegratorKind { newmark, backward_euler };
+/// `static` solves for equilibrium with backward Euler's machinery
+/// (BackwardEulerSettings::statics), its settings in Scene::backward_euler.
+enum class IntegratorKind { newmark, backward_euler, statics };
 
 /// Nodes inside an axis-aligned world box are held still (re-evaluated at
 /// every re-mesh: pinned nodes do not move, so the region stays theirs).

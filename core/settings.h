@@ -65,6 +65,15 @@ struct BackwardEulerSettings {
   double smoothing = 0.0;
   /// Incompressible materials: as NewmarkSettings::volume_tolerance.
   double volume_tolerance = kVolumeTolerance;
+  /// Static equilibrium instead of dynamics (a scene's `{"type": "static"}`;
+  /// docs/implicit.md, "Static equilibrium"): no inertia, no damping; a
+  /// step ends at the equilibrium of the loads at its end time, reached in
+  /// load steps from the last equilibrium when one Newton solve does not
+  /// converge (at most max_halvings halvings of the load increment).
+  bool statics = false;
+  /// Static: gravity grows linearly from zero at t = 0 to its full value
+  /// at this time, s (0: the full gravity from the start).
+  double gravity_ramp = 0.0;
 };
 
 /// Self-collisions of a body's embedded surface (docs/embedded-surface.md,

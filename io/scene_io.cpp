@@ -438,8 +438,12 @@ Obstacle read_obstacle(Node n, std::size_t index, const std::filesystem::path& b
   return o;
 }
 
+/// The static integrator's default step: as long as it may be, so that
+/// every frame is one equilibrium (a step never passes a frame's time).
+constexpr double kOneSolvePerFrame = 1e9;
+
 void read_integrator(Node n, Scene& s) {
-  const std::string type = n.at("type").choice({"newmark", "backward_euler"});
+  const std::string type = n.at("type").choice({"newmark", "backward_euler", "static"});
   if (type == "newmark") {
     s.integrator = IntegratorKind::newmark;
     NewmarkSettings& ns = s.newmark;
@@ -463,8 +467,13 @@ void read_integrator(Node n, Scene& s) {
       return x;
     });
   } else {
-    s.integrator = IntegratorKind::backward_euler;
+    s.integrator = type == "static" ? IntegratorKind::statics : IntegratorKind::backward_euler;
     BackwardEulerSettings& bs = s.backward_euler;
+    if (type == "static") {
+      bs.statics = true;
+      bs.time_step = kOneSolvePerFrame;
+      optional(n, "gravity_ramp", bs.gravity_ramp, [](const Node& v) { return v.non_negative(); });
+    }
     optional(n, "time_step", bs.time_step, [](const Node& v) { return v.positive(); });
     optional(n, "tolerance", bs.tolerance, [](const Node& v) { return v.positive(); });
     optional(n, "acceptable_tolerance", bs.acceptable_tolerance, [](const Node& v) { return v.positive(); });
@@ -660,10 +669,11 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::f
     });
     optional(*st, "smoothing", s.newmark.smoothing, [](const Node& v) { return v.non_negative(); });
     s.backward_euler.smoothing = s.newmark.smoothing;
-    if (s.integrator == IntegratorKind::backward_euler && s.newmark.surface_tension_form == SurfaceTensionForm::paper)
-      st->at("form").fail(
-          "is 'paper', which is not the gradient of an energy; the backward_euler integrator minimises one "
-          "(use area_gradient, or the newmark integrator)");
+    if (s.integrator != IntegratorKind::newmark && s.newmark.surface_tension_form == SurfaceTensionForm::paper)
+      st->at("form").fail(fmt::format(
+          "is 'paper', which is not the gradient of an energy; the {} integrator minimises one "
+          "(use area_gradient, or the newmark integrator)",
+          to_string(s.integrator)));
     st->finish();
   }
   if (auto o = root.get("obstacles"))
@@ -678,6 +688,16 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::f
   for (std::size_t i = 0; i < s.objects.size(); ++i)
     if (!names.insert(s.objects[i].name).second)
       objects.element(i).fail(fmt::format("repeats the object name '{}'", s.objects[i].name));
+  if (s.integrator == IntegratorKind::statics)
+    for (std::size_t i = 0; i < s.objects.size(); ++i) {
+      // Without held nodes a body has no equilibrium under gravity (contact
+      // is not part of the static solve), and an incompressible one none of
+      // its own (docs/implicit.md, "Static equilibrium").
+      if (s.objects[i].pinned.empty())
+        objects.element(i).fail("needs a 'pinned' region with the static integrator: a body held nowhere has no equilibrium");
+      if (s.objects[i].material.incompressible)
+        objects.element(i).fail("is incompressible, which the static integrator does not support (use newmark or backward_euler)");
+    }
   if (auto c = root.get("collisions_between_bodies")) {
     // true, false, or {"enabled", "thickness", "friction"}
     BodyCollisionSettings& bc = s.body_collisions;

@@ -107,12 +107,20 @@ void apply_blocks(const Body& body, const std::vector<Matrix12>& C, const Points
 /// "Time integration"): E(y) = ½‖y − x̂‖²_M/Δt² + Ψ(y) + σA(Wy) + Δt/2 vᵀCv,
 /// v = (y − xⁿ)/Δt, C_e with Fe frozen at xⁿ; an incompressible material's
 /// carried pressure force joins gravity in x̂ as a load constant over the step.
+/// Static (settings.statics): the potential energy Π(y) = Ψ(y) + σA(Wy) −
+/// Σ m_n γ g·y_n alone, γ the gravity's load factor (docs/implicit.md,
+/// "Static equilibrium").
 struct BackwardEulerIntegrator::Potential {
-  Potential(BackwardEulerIntegrator& integrator, Body& body_, double dt_)
+  Potential(BackwardEulerIntegrator& integrator, Body& body_, double dt_, double gravity_factor = 1.0)
       : body(body_), elastic(integrator.elastic_), tension(integrator.tension_), fixed(integrator.fixed_), dt(dt_),
-        xn(body_.positions), viscous(body_.material.viscosity > 0.0), with_tension(EmbeddedTension::active(body_)) {
+        xn(body_.positions), statics(integrator.settings_.statics),
+        viscous(!statics && body_.material.viscosity > 0.0), with_tension(EmbeddedTension::active(body_)),
+        load(gravity_factor * integrator.settings_.gravity) {
     const Index nn = body.num_nodes(), ne = body.num_elements();
     const Eigen::VectorXd& m = body.masses;
+    gradient.resize(nn, 3);
+    if (with_tension) surface_nodes = SurfaceNodes::of(body);
+    if (statics) return;
     target = xn + dt * body.velocities;
     target.rowwise() += dt * dt * integrator.settings_.gravity.transpose();
     if (body.material.incompressible) {
@@ -133,9 +141,7 @@ struct BackwardEulerIntegrator::Potential {
     }
     // Surface tension (W&T sec. 7) as the energy σ A(W x) (algorithms.md,
     // "Surface tension"): its Hessian couples the nodes of each triangle's
-    // corners' parents, which the pattern includes.
-    if (with_tension) surface_nodes = SurfaceNodes::of(body);
-    gradient.resize(nn, 3);
+    // corners' parents, which the pattern (surface_nodes) includes.
   }
 
   void forces(const Points& y, Points& out) {
@@ -145,6 +151,11 @@ struct BackwardEulerIntegrator::Potential {
 
   double energy(const Points& y) {
     const Eigen::VectorXd& m = body.masses;
+    if (statics) {
+      double work = 0.0;
+      for (Index n = 0; n < body.num_nodes(); ++n) work += m[n] * load.dot(y.row(n).transpose());
+      return elastic_energy(body, y) + (with_tension ? EmbeddedTension::energy(body, y) : 0.0) - work;
+    }
     double inertia = 0.0;
     for (Index n = 0; n < body.num_nodes(); ++n) inertia += m[n] * (y.row(n) - target.row(n)).squaredNorm();
     double dissipation = 0.0;
@@ -161,7 +172,12 @@ struct BackwardEulerIntegrator::Potential {
   void evaluate_gradient(const Points& y) {
     const Eigen::VectorXd& m = body.masses;
     forces(y, f);
-    for (Index n = 0; n < body.num_nodes(); ++n) gradient.row(n) = m[n] * (y.row(n) - target.row(n)) / (dt * dt) - f.row(n);
+    if (statics) {
+      for (Index n = 0; n < body.num_nodes(); ++n) gradient.row(n) = -f.row(n) - m[n] * load.transpose();
+    } else {
+      for (Index n = 0; n < body.num_nodes(); ++n)
+        gradient.row(n) = m[n] * (y.row(n) - target.row(n)) / (dt * dt) - f.row(n);
+    }
     if (viscous) {
       apply_blocks(body, damping, (y - xn) / dt, damping_force);
       gradient += damping_force;
@@ -178,8 +194,8 @@ struct BackwardEulerIntegrator::Potential {
   double force_scale(const Points& x, double gravity, bool driven_nodes) {
     const Eigen::VectorXd& m = body.masses;
     forces(xn, f);
-    double inertia = 0.0;
-    for (Index n = 0; n < body.num_nodes(); ++n)
+    double inertia = 0.0;  // none in a static solve
+    for (Index n = 0; n < body.num_nodes() && !statics; ++n)
       if (!fixed[at(n)]) inertia = std::max(inertia, m[n] * body.velocities.row(n).norm() / dt);
     double driven = 0.0;
     if (driven_nodes) {
@@ -195,7 +211,8 @@ struct BackwardEulerIntegrator::Potential {
   const std::vector<std::uint8_t>& fixed;
   double dt;
   Points xn, target;
-  bool viscous, with_tension;
+  bool statics, viscous, with_tension;
+  Eigen::Vector3d load;  // statics: the gravity at this load step, m/s²
   std::vector<Matrix12> damping;
   SurfaceNodes surface_nodes;
   Points f, gradient, damping_force, scratch;
@@ -216,7 +233,8 @@ bool BackwardEulerIntegrator::newton_direction(const Body& body, const Potential
   const double dt = potential.dt;
   const IsotropicEnergy energy(body.material);
   Eigen::VectorXd diagonal(3 * nn);
-  for (Index n = 0; n < nn; ++n) diagonal.segment<3>(3 * n).setConstant(body.masses[n] / (dt * dt));
+  for (Index n = 0; n < nn; ++n)  // M/Δt²; none in a static solve
+    diagonal.segment<3>(3 * n).setConstant(potential.statics ? 0.0 : body.masses[n] / (dt * dt));
   bool solved = false;
   for (int attempt = 0; attempt < 2 && !solved; ++attempt) {
     if (attempt > 0) {
@@ -297,8 +315,7 @@ bool line_search(Energy&& energy, const Eigen::Map<const Points>& step, double s
 
 bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& status) {
   StageTimer timer;
-  const Index nn = body.num_nodes();
-  const Points xn = body.positions;
+  const Points& xn = body.positions;
   const double t_next = time_ + dt;
   Potential potential(*this, body, dt);
   // The first guess: x̂, the constrained nodes at their positions at t_next.
@@ -307,6 +324,13 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
   for (const auto& motion : constraints_.prescribed)
     for (const Index n : motion.nodes)
       x.row(n) = motion.position(n, body.rest_positions.row(n).transpose(), t_next).transpose();
+  return newton(body, potential, x, timer, status);
+}
+
+bool BackwardEulerIntegrator::newton(Body& body, Potential& potential, Points& x, StageTimer& timer,
+                                     NewtonStatus& status) {
+  const Index nn = body.num_nodes();
+  const Points& xn = potential.xn;
   const double scale = potential.force_scale(x, settings_.gravity.norm(), !constraints_.prescribed.empty());
   times_.forces += timer.lap();
   if (!hessian_.matches(body.tets, nn, potential.surface_nodes.nodes))
@@ -314,14 +338,17 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
   if (factor_->analysed_for != hessian_.builds()) factor_->analysed_for = -1;
 
   status = NewtonStatus{};
-  status.dt = dt;
+  status.dt = potential.dt;
   double E = potential.energy(x);
   bool project = false;
   times_.hessian += timer.lap();
   auto accept = [&](double residual, int iterations) {
     status.residual = residual;
     status.iterations = iterations;
-    body.velocities = (x - xn) / dt;
+    if (potential.statics)
+      body.velocities.setZero(nn, 3);
+    else
+      body.velocities = (x - xn) / potential.dt;
     body.positions = x;
     return true;
   };
@@ -345,7 +372,7 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
   potential.evaluate_gradient(x);
   const double residual = max_abs_free(potential.gradient, fixed_) / scale;
   if (std::isfinite(residual) && residual <= settings_.acceptable_tolerance) {
-    log().debug("backward_euler: accepted Δt = {} s at residual {:.3g} after {} iterations", dt, residual,
+    log().debug("backward_euler: accepted Δt = {} s at residual {:.3g} after {} iterations", potential.dt, residual,
                 settings_.max_newton_iterations);
     status.residuals.push_back(residual);
     return accept(residual, settings_.max_newton_iterations);
@@ -363,17 +390,21 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
   if (!(dt > 0.0)) throw Error(fmt::format("backward_euler: non-positive time step {} s", dt));
   const Points x0 = body.positions, v0 = body.velocities;
   NewtonStatus status;
-  int halvings = 0;
-  while (!try_step(body, dt, status)) {
-    body.positions = x0;
-    body.velocities = v0;
-    if (++halvings > settings_.max_halvings)
-      throw Error(fmt::format("backward_euler: Newton did not converge at t = {} s even with Δt = {} s", time_, dt));
-    log().debug("backward_euler: Newton did not converge with Δt = {} s ({} line-search halvings; residuals {:.3g}); halving", dt, status.line_search_steps,
-                fmt::join(status.residuals, ", "));
-    dt *= 0.5;
+  if (settings_.statics) {
+    solve_static(body, dt, status);
+  } else {
+    int halvings = 0;
+    while (!try_step(body, dt, status)) {
+      body.positions = x0;
+      body.velocities = v0;
+      if (++halvings > settings_.max_halvings)
+        throw Error(fmt::format("backward_euler: Newton did not converge at t = {} s even with Δt = {} s", time_, dt));
+      log().debug("backward_euler: Newton did not converge with Δt = {} s ({} line-search halvings; residuals {:.3g}); halving", dt, status.line_search_steps,
+                  fmt::join(status.residuals, ", "));
+      dt *= 0.5;
+    }
+    status.halvings = halvings;
   }
-  status.halvings = halvings;
   StageTimer timer;
   // Incompressible materials: xⁿ⁺¹ and vⁿ⁺¹ projected so that every node
   // keeps its volume (Irving et al. 2007).
@@ -401,13 +432,73 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
   times_.collisions += timer.lap() - restoring;
   if (constraints_.self_collisions) {
     SelfCollisionParameters parameters = *constraints_.self_collisions;
-    parameters.reference_step = settings_.time_step;  // a halved step responds at half the displacement
+    // A halved step responds at half the displacement; a static step is its own reference.
+    parameters.reference_step = settings_.statics ? dt : settings_.time_step;
     status.self_collisions = self_collisions_.resolve_step(body, x0, dt, fixed_, parameters);
   }
   times_.self_collisions += timer.lap();
   time_ = t_next;
   status.times = times_;
   return status;
+}
+
+double BackwardEulerIntegrator::gravity_factor(double t) const {
+  return settings_.gravity_ramp > 0.0 ? std::min(1.0, t / settings_.gravity_ramp) : 1.0;
+}
+
+void BackwardEulerIntegrator::set_time(double t) {
+  time_ = t;
+  // A body at t = 0 is at rest in its rest shape: in equilibrium without load.
+  loaded_ = t > 0.0 ? gravity_factor(t) : 0.0;
+}
+
+void BackwardEulerIntegrator::solve_static(Body& body, double dt, NewtonStatus& status) {
+  bool any_fixed = false;
+  for (const std::uint8_t f : fixed_) any_fixed = any_fixed || f != 0;
+  if (!any_fixed)
+    throw Error("static: the body has no pinned or moved nodes, so it has no equilibrium under its loads (pin a "
+                "region of it, or use the backward_euler integrator)");
+  if (body.material.incompressible)
+    throw Error("static: incompressible materials are not supported by the static solve");
+  // Load steps (docs/implicit.md, "Static equilibrium"): from the last
+  // equilibrium (load factor s = 0) to this step's loads (s = 1), the moved
+  // nodes' positions and the gravity factor interpolated linearly; an
+  // increment Newton does not converge on is halved.
+  const double t_next = time_ + dt;
+  const double from = loaded_, to = gravity_factor(t_next);
+  const Points x_from = body.positions;
+  status = NewtonStatus{};
+  status.dt = dt;
+  double s = 0.0, ds = 1.0;
+  while (s < 1.0) {
+    const double s_next = std::min(1.0, s + ds);
+    StageTimer timer;
+    Potential potential(*this, body, dt, from + s_next * (to - from));
+    Points x = body.positions;
+    for (const auto& motion : constraints_.prescribed)
+      for (const Index n : motion.nodes) {
+        const Eigen::Vector3d end = motion.position(n, body.rest_positions.row(n).transpose(), t_next);
+        x.row(n) = ((1.0 - s_next) * x_from.row(n).transpose() + s_next * end).transpose();
+      }
+    NewtonStatus attempt;
+    const bool converged = newton(body, potential, x, timer, attempt);
+    status.iterations += attempt.iterations;
+    status.line_search_steps += attempt.line_search_steps;
+    status.factorisations += attempt.factorisations;
+    status.pcg_iterations += attempt.pcg_iterations;
+    status.residual = attempt.residual;
+    status.residuals.insert(status.residuals.end(), attempt.residuals.begin(), attempt.residuals.end());
+    if (converged) {
+      s = s_next;
+      continue;
+    }
+    if (++status.halvings > settings_.max_halvings)
+      throw Error(fmt::format("static: no equilibrium found at t = {} s even in load steps of 1/{} (residuals {:.3g})",
+                              t_next, 1L << settings_.max_halvings, fmt::join(attempt.residuals, ", ")));
+    log().debug("static: Newton did not converge on the load step {} -> {}; halving it", s, s_next);
+    ds *= 0.5;
+  }
+  loaded_ = to;
 }
 
 int BackwardEulerIntegrator::advance_to(Body& body, double t_end) {

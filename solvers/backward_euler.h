@@ -8,7 +8,10 @@
 // Hessians projected to positive semi-definite, a backtracking line search
 // on E, and CHOLMOD's supernodal Cholesky whose symbolic analysis is kept
 // until the mesh topology changes. vⁿ⁺¹ = (xⁿ⁺¹ − xⁿ)/Δt; plastic flow after
-// convergence; then the ground and the surface collisions.
+// convergence; then the surface collisions. With settings.statics the same
+// Newton solves the static equilibrium instead: Π(x) = Ψ(x) − Σ m γ g·x
+// without inertia or damping, in load steps (docs/implicit.md, "Static
+// equilibrium").
 #include <memory>
 
 #include "core/body.h"
@@ -31,7 +34,7 @@ struct NewtonStatus {
   double dt = 0.0;             ///< the step taken, s
   int iterations = 0;          ///< Newton iterations of the accepted attempt
   int line_search_steps = 0;   ///< halvings of the Newton step, all iterations
-  int halvings = 0;            ///< retries at half Δt before it converged
+  int halvings = 0;            ///< retries at half Δt before it converged (static: halvings of the load increment)
   int factorisations = 0;      ///< numerical factorisations, all attempts
   int pcg_iterations = 0;      ///< lagged_pcg: CG iterations, all attempts
   double residual = 0.0;       ///< final ‖∇E‖∞ / force scale
@@ -55,7 +58,9 @@ class BackwardEulerIntegrator {
   int advance_to(Body& body, double t_end);
 
   [[nodiscard]] double time() const { return time_; }
-  void set_time(double t) { time_ = t; }
+  /// Sets the clock; a static solve takes the body to be in equilibrium
+  /// at the loads of time t (none at t = 0).
+  void set_time(double t);
   /// Forget the lagged factor, so that the next solve refactors: after this
   /// the integrator's results depend on the body's state alone (a restart point).
   void invalidate();
@@ -67,6 +72,13 @@ class BackwardEulerIntegrator {
  private:
   struct Potential;
   bool try_step(Body& body, double dt, NewtonStatus& status);
+  /// Newton with a line search on `potential` from the first guess x;
+  /// on convergence the body takes x (and its velocities).
+  bool newton(Body& body, Potential& potential, Points& x, StageTimer& timer, NewtonStatus& status);
+  /// Static: the equilibrium at the loads of time_ + dt, in load steps.
+  void solve_static(Body& body, double dt, NewtonStatus& status);
+  /// Static: the gravity's load factor at time t (settings.gravity_ramp).
+  [[nodiscard]] double gravity_factor(double t) const;
   /// The Newton direction dx of H dx = rhs at x (H assembled there; its
   /// element and triangle Hessians projected to positive semi-definite once
   /// `project` is set, which an indefinite H or a non-descent direction
@@ -91,6 +103,7 @@ class BackwardEulerIntegrator {
   std::vector<Matrix12> blocks_;         // the element Hessians, kept across iterations
   std::vector<Matrix9d> surface_blocks_;  // the surface triangles'
   double time_ = 0.0;
+  double loaded_ = 0.0;  // static: the gravity factor the body is in equilibrium with
   StepTimes times_;  // this step's, by stage
 };
 

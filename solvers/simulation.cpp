@@ -40,11 +40,14 @@ std::vector<Index> nodes_in(const Points& x, const std::vector<PinnedRegion>& re
   return out;
 }
 
-/// Newton failed even at the smallest Δt: not bad input.
-NumericalFailure newton_failure(std::int64_t step, double t, const std::string& body, const Error& e) {
-  return NumericalFailure(fmt::format("numerical failure at step {} (t = {:.6g} s): body '{}': {}; try a smaller "
-                                      "backward_euler.time_step or more max_newton_iterations",
-                                      step, t, body, e.what()));
+/// Newton failed even at the smallest Δt (static: the smallest load step): not bad input.
+NumericalFailure newton_failure(std::int64_t step, double t, const std::string& body, const Error& e,
+                                IntegratorKind kind) {
+  return NumericalFailure(fmt::format("numerical failure at step {} (t = {:.6g} s): body '{}': {}; try {}", step, t,
+                                      body, e.what(),
+                                      kind == IntegratorKind::statics
+                                          ? "a larger max_halvings or more max_newton_iterations"
+                                          : "a smaller backward_euler.time_step or more max_newton_iterations"));
 }
 
 /// Coordinates a state may hold, m: far beyond any scene (a body at
@@ -216,7 +219,7 @@ void Simulation::attach(std::size_t i, double time) {
     settings.gravity = scene_.gravity;
     stepper->newmark = std::make_unique<NewmarkIntegrator>(settings, std::move(constraints));
   } else {
-    BackwardEulerSettings settings = scene_.backward_euler;
+    BackwardEulerSettings settings = scene_.backward_euler;  // statics set for the static integrator
     settings.gravity = scene_.gravity;
     stepper->backward_euler = std::make_unique<BackwardEulerIntegrator>(settings, std::move(constraints));
   }
@@ -286,7 +289,7 @@ void Simulation::step_body(std::size_t i, double max_dt) {
     try {
       record(s.backward_euler->step(b.body, max_dt));
     } catch (const Error& e) {  // Newton failed even at the smallest Δt: not bad input
-      throw newton_failure(steps_ + 1, s.backward_euler->time(), b.name, e);
+      throw newton_failure(steps_ + 1, s.backward_euler->time(), b.name, e, scene_.integrator);
     }
   }
   times_.integrate += seconds_since(start);
@@ -328,7 +331,7 @@ void Simulation::step_together(double max_dt) {
         record(status);
       });
     } catch (const Error& e) {
-      throw newton_failure(steps_ + 1, s.backward_euler->time(), b.name, e);
+      throw newton_failure(steps_ + 1, s.backward_euler->time(), b.name, e, scene_.integrator);
     }
     s.backward_euler->set_time(t0 + dt);
   }
@@ -422,7 +425,8 @@ void Simulation::collide_bodies(const std::vector<Points>& x_start, double dt) {
   double reference = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < count; ++i)
     reference = std::min(reference, steppers_[i]->newmark ? steppers_[i]->newmark->reference_step()
-                                                          : scene_.backward_euler.time_step);
+                                    : scene_.integrator == IntegratorKind::statics ? dt  // a static step is its own
+                                                                                   : scene_.backward_euler.time_step);
   if (reference > 0.0 && std::isfinite(reference)) parameters.target_scale = std::min(1.0, dt / reference);
   const Points before = d;
   self_collisions_ += joint_collisions_.resolve(joint_, x0, d, fixed, parameters);

@@ -142,6 +142,41 @@ TEST(Scene, IntegratorAndItsSettingsAreChosenPerScene) {
   EXPECT_EQ(t.newmark.smoothing, 0.5);
 }
 
+// The static integrator: backward Euler's settings with statics on, one
+// equilibrium per frame unless a time_step says otherwise; every object must
+// be held somewhere and be compressible, and its own key is checked.
+TEST(Scene, TheStaticIntegratorNeedsHeldCompressibleBodies) {
+  const std::string held =
+      R"({"primitive": {"type": "box", "size": [1, 0.1, 0.1]}, "material": {"youngs_modulus": 1e6},
+          "lattice_spacing": 0.05, "pinned": [{"box": {"min": [-1, -1, -1], "max": [0.01, 1, 1]}}]})";
+  const Scene s = parse(with_object(held, R"("integrator": {"type": "static", "gravity_ramp": 2},)"));
+  EXPECT_EQ(s.integrator, IntegratorKind::statics);
+  EXPECT_EQ(to_string(s.integrator), "static");
+  EXPECT_TRUE(s.backward_euler.statics);
+  EXPECT_EQ(s.backward_euler.gravity_ramp, 2.0);
+  EXPECT_GT(s.backward_euler.time_step, 1e6);  // a step never passes a frame: one equilibrium each
+  EXPECT_EQ(parse(with_object(held, R"("integrator": {"type": "static", "time_step": 0.1},)")).backward_euler.time_step,
+            0.1);
+  EXPECT_FALSE(parse(with_object(held, R"("integrator": {"type": "backward_euler"},)")).backward_euler.statics);
+  EXPECT_TRUE(test::throws_error_containing(
+      [&] { parse(with_object(held, R"("integrator": {"type": "static", "gravity_ramp": -1},)")); },
+      "test.json: /integrator/gravity_ramp must be non-negative"));
+  EXPECT_TRUE(test::throws_error_containing(
+      [&] { parse(with_object(held, R"("integrator": {"type": "backward_euler", "gravity_ramp": 1},)")); },
+      "/integrator/gravity_ramp is not a known key here"));
+  const std::string loose =
+      R"({"primitive": {"type": "box", "size": [1, 0.1, 0.1]}, "material": {"youngs_modulus": 1e6}, "lattice_spacing": 0.05})";
+  EXPECT_TRUE(test::throws_error_containing(
+      [&] { parse(with_object(loose, R"("integrator": {"type": "static"},)")); },
+      "test.json: /objects/0 needs a 'pinned' region with the static integrator"));
+  const std::string incompressible =
+      R"({"primitive": {"type": "box", "size": [1, 0.1, 0.1]}, "material": "jiggly_gelatin",
+          "lattice_spacing": 0.05, "pinned": [{"box": {"min": [-1, -1, -1], "max": [0.01, 1, 1]}}]})";
+  EXPECT_TRUE(test::throws_error_containing(
+      [&] { parse(with_object(incompressible, R"("integrator": {"type": "static"},)")); },
+      "/objects/0 is incompressible, which the static integrator does not support"));
+}
+
 TEST(Scene, PresetsAreIncompressibleAndTheKeySwitchesItPerObject) {
   for (const std::string& name : material_preset_names()) EXPECT_TRUE(material_preset(name).incompressible) << name;
   EXPECT_FALSE(Material{}.incompressible);  // a material given only by its constants is not
@@ -344,7 +379,7 @@ INSTANTIATE_TEST_SUITE_P(
                  "/objects/0/lattice_spacing is larger than the object"},
         BadScene{"no_objects", R"({"objects": []})", "/objects needs at least one object"},
         BadScene{"unknown_integrator", with_object(kCube, R"("integrator": {"type": "rk4"},)"),
-                 "/integrator/type must be one of newmark, backward_euler, got 'rk4'"},
+                 "/integrator/type must be one of newmark, backward_euler, static, got 'rk4'"},
         BadScene{"newmark_key_on_implicit", with_object(kCube, R"("integrator": {"type": "backward_euler", "cfl": 0.3},)"),
                  "/integrator/cfl is not a known key"},
         BadScene{"negative_fps", with_object(kCube, R"("output": {"fps": -24},)"), "/output/fps must be positive"},
