@@ -10,12 +10,27 @@
 #include <string>
 #include <string_view>
 
+#include "core/material.h"
 #include "core/state_record.h"
 #include "core/tet_mesh.h"
 
 #include "core/error.h"
 
 namespace goo::test {
+
+/// The elastic models every model-wise test runs over.
+inline constexpr ElasticModel kModels[] = {ElasticModel::neo_hookean, ElasticModel::fixed_corotated,
+                                           ElasticModel::stable_neo_hookean};
+
+/// A material of the given model and constants (viscosity in Pa·s).
+inline Material material(ElasticModel model, double E, double nu, double viscosity = 0.0) {
+  Material m;
+  m.model = model;
+  m.youngs_modulus = E;
+  m.poisson_ratio = nu;
+  m.viscosity = viscosity;
+  return m;
+}
 
 /// Expects two saved states to hold the same arrays, bit for bit (a
 /// resumed or multi-threaded run against a straight or serial one).

@@ -14,8 +14,7 @@
 namespace goo {
 namespace {
 
-constexpr ElasticModel kModels[] = {ElasticModel::neo_hookean, ElasticModel::fixed_corotated,
-                                    ElasticModel::stable_neo_hookean};
+using test::kModels;
 
 Body make_cube(ElasticModel model, int cells = 3) {
   Material m;

@@ -11,8 +11,7 @@
 namespace goo {
 namespace {
 
-constexpr ElasticModel kModels[] = {ElasticModel::neo_hookean, ElasticModel::fixed_corotated,
-                                    ElasticModel::stable_neo_hookean};
+using test::kModels;
 
 IsotropicEnergy make(ElasticModel model) {
   Material m;

@@ -21,17 +21,8 @@ namespace {
 using test::check_derivative;
 using test::second_order;
 
-constexpr ElasticModel kModels[] = {ElasticModel::neo_hookean, ElasticModel::fixed_corotated,
-                                    ElasticModel::stable_neo_hookean};
-
-Material material(ElasticModel model, double E, double nu, double viscosity = 0.0) {
-  Material m;
-  m.model = model;
-  m.youngs_modulus = E;
-  m.poisson_ratio = nu;
-  m.viscosity = viscosity;
-  return m;
-}
+using test::kModels;
+using test::material;
 
 /// One element (the unit corner tetrahedron), its corners moved at random
 /// by up to `amount` (possibly inverted), with a random volume-preserving

@@ -13,17 +13,7 @@
 namespace goo {
 namespace {
 
-constexpr ElasticModel kModels[] = {ElasticModel::neo_hookean, ElasticModel::fixed_corotated,
-                                    ElasticModel::stable_neo_hookean};
-
-Material material(ElasticModel model, double E, double nu, double viscosity = 0.0) {
-  Material m;
-  m.model = model;
-  m.youngs_modulus = E;
-  m.poisson_ratio = nu;
-  m.viscosity = viscosity;
-  return m;
-}
+using test::material;
 
 Body box(const Material& m, int cells, double size = 0.3) {
   return make_body(make_box_tets(Eigen::Vector3d::Constant(size), Eigen::Vector3i::Constant(cells)), m);
@@ -130,9 +120,7 @@ TEST(BackwardEuler, CantileverSettlesAtTheStaticEquilibrium) {
 // so do these, level by level.
 TEST(BackwardEuler, CantileverApproachesEulerBernoulliUnderRefinement) {
   const double E = 1e7, rho = 100.0, g = 9.81, h = 0.1, L = 1.0;
-  const double q = rho * g * h * h, I = h * h * h * h / 12.0;
-  // δ = q L⁴/(8 E I) plus Timoshenko's shear term q L²/(2 κ G A), κ = 5/6, G = E/2.
-  const double reference = q * L * L * L * L / (8.0 * E * I) + q * L * L / (2.0 * (5.0 / 6.0) * (E / 2.0) * h * h);
+  const double reference = test::cantilever_tip_reference(E, rho, g, h, L);
   double previous_error = 1.0;
   for (const int n : {1, 2, 4}) {
     Material m = material(ElasticModel::fixed_corotated, E, 0.0, 2e3);  // viscous: it settles in about a second
@@ -151,16 +139,7 @@ TEST(BackwardEuler, CantileverApproachesEulerBernoulliUnderRefinement) {
     settings.time_step = 0.05;
     BackwardEulerIntegrator integrator(settings, c);
     integrator.advance_to(dynamic, 2.0);
-    auto tip = [&](const Body& b) {
-      double sum = 0.0;
-      int count = 0;
-      for (Index v = 0; v < b.num_nodes(); ++v)
-        if (b.rest_positions(v, 0) == L) {
-          sum += b.rest_positions(v, 2) - b.positions(v, 2);
-          ++count;
-        }
-      return sum / count;
-    };
+    auto tip = [&](const Body& b) { return test::tip_deflection(b, L); };
     const double static_tip = tip(statics), dynamic_tip = tip(dynamic);
     // Settled: the remaining motion decays as exp(−t/τ); 1e-4 is below every
     // level's distance to beam theory by two orders.

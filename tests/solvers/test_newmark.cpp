@@ -13,8 +13,7 @@
 namespace goo {
 namespace {
 
-constexpr ElasticModel kModels[] = {ElasticModel::neo_hookean, ElasticModel::fixed_corotated,
-                                    ElasticModel::stable_neo_hookean};
+using test::kModels;
 
 Body make_cube(ElasticModel model = ElasticModel::fixed_corotated, int cells = 3, double viscosity = 0.0) {
   Material m;
