@@ -5,7 +5,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include <Eigen/CholmodSupport>
 #include <algorithm>
 #include <cmath>
 
@@ -17,45 +16,8 @@
 
 namespace goo {
 
-struct BackwardEulerIntegrator::Factor {
-  // A factor that fails (not positive definite) comes back as info(), which
-  // the Newton loop handles; CHOLMOD's own warnings on stderr are silenced.
-  Factor() { llt.cholmod().print = 0; }
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;
-  int symbolic = 0;
-  int analysed_for = -1;  // SparseHessian::builds() when last analysed
-  int factored_for = -1;  // the same, for the last numerical factor (the lagged preconditioner)
-};
-
-bool BackwardEulerIntegrator::lagged_pcg(const Eigen::VectorXd& b, Eigen::VectorXd& x, NewtonStatus& status) {
-  // CG on the lower-triangle-stored symmetric H, preconditioned by the last
-  // factor: x₀ = L⁻ᵀL⁻¹ b, stop at relative residual 1e-10 (Newton needs no more).
-  const auto H = hessian_.matrix().selfadjointView<Eigen::Lower>();
-  x = factor_->llt.solve(b);
-  Eigen::VectorXd r = b - H * x;
-  const double b_norm = b.norm();
-  if (b_norm == 0.0) return true;
-  Eigen::VectorXd z = factor_->llt.solve(r), p = z, Ap;
-  double rz = r.dot(z);
-  for (int k = 0; k < settings_.pcg_max_iterations; ++k) {
-    if (r.norm() <= 1e-10 * b_norm) return true;
-    Ap = H * p;
-    const double curvature = p.dot(Ap);
-    if (!(curvature > 0.0)) return false;  // H is not positive definite along p
-    const double alpha = rz / curvature;
-    x += alpha * p;
-    r -= alpha * Ap;
-    ++status.pcg_iterations;
-    z = factor_->llt.solve(r);
-    const double rz_next = r.dot(z);
-    p = z + (rz_next / rz) * p;
-    rz = rz_next;
-  }
-  return r.norm() <= 1e-10 * b_norm;
-}
-
 BackwardEulerIntegrator::BackwardEulerIntegrator(BackwardEulerSettings settings, Constraints constraints)
-    : settings_(std::move(settings)), constraints_(std::move(constraints)), factor_(std::make_unique<Factor>()) {
+    : settings_(std::move(settings)), constraints_(std::move(constraints)) {
   if (!(settings_.volume_tolerance > 0.0 && settings_.volume_tolerance < 0.1)) {
     throw Error(
         fmt::format("backward_euler.volume_tolerance must be in (0, 0.1), got {}", settings_.volume_tolerance));
@@ -75,11 +37,11 @@ BackwardEulerIntegrator::BackwardEulerIntegrator(BackwardEulerSettings settings,
 BackwardEulerIntegrator::~BackwardEulerIntegrator() = default;
 
 void BackwardEulerIntegrator::invalidate() {
-  factor_->factored_for = -1;
+  cholesky_.forget_factor();
   volume_.reset();
 }
 
-int BackwardEulerIntegrator::symbolic_factorisations() const { return factor_->symbolic; }
+int BackwardEulerIntegrator::symbolic_factorisations() const { return cholesky_.analyses(); }
 
 namespace {
 
@@ -256,24 +218,18 @@ bool BackwardEulerIntegrator::newton_direction(const Body& body, const Potential
     }
     hessian_.fix_nodes(fixed_);
     times_.hessian += timer.lap();
-    if (factor_->analysed_for < 0) {
-      factor_->llt.analyzePattern(hessian_.matrix());
-      ++factor_->symbolic;
-      factor_->analysed_for = hessian_.builds();
-    }
+    const int pattern = hessian_.builds();
+    if (!cholesky_.analysed_for(pattern)) cholesky_.analyse(hessian_.matrix(), pattern);
     const bool lagged = settings_.linear_solver == LinearSolver::lagged_pcg ||
                         (settings_.linear_solver == LinearSolver::automatic && 3L * nn > kLaggedPcgUnknowns);
-    bool have = lagged && factor_->factored_for == hessian_.builds() && lagged_pcg(rhs, dx, status);
+    // CG preconditioned by the last factor, to relative residual 1e-10 (Newton needs no more).
+    bool have = lagged && cholesky_.has_factor_for(pattern) &&
+                cholesky_.preconditioned_cg(hessian_.matrix(), rhs, dx, 1e-10, settings_.pcg_max_iterations,
+                                            status.pcg_iterations);
     if (!have) {
-      factor_->llt.factorize(hessian_.matrix());
       ++status.factorisations;
-      if (factor_->llt.info() != Eigen::Success) {
-        factor_->factored_for = -1;
-        continue;  // indefinite: project
-      }
-      factor_->factored_for = hessian_.builds();
-      dx = factor_->llt.solve(rhs);
-      have = factor_->llt.info() == Eigen::Success;
+      if (!cholesky_.factor(hessian_.matrix(), pattern)) continue;  // indefinite: project
+      have = cholesky_.solve(rhs, dx);
     }
     solved = have && dx.allFinite() && rhs.dot(dx) > 0.0;  // a descent direction
     times_.linear_solve += timer.lap();
@@ -335,7 +291,6 @@ bool BackwardEulerIntegrator::newton(Body& body, Potential& potential, Points& x
   times_.forces += timer.lap();
   if (!hessian_.matches(body.tets, nn, potential.surface_nodes.nodes))
     hessian_.build(body.tets, nn, potential.surface_nodes.nodes);
-  if (factor_->analysed_for != hessian_.builds()) factor_->analysed_for = -1;
 
   status = NewtonStatus{};
   status.dt = potential.dt;

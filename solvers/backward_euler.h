@@ -22,6 +22,7 @@
 #include "core/settings.h"
 #include "core/volume_projection.h"
 #include "solvers/embedded_tension.h"
+#include "solvers/sparse_cholesky.h"
 #include "solvers/sparse_hessian.h"
 #include "solvers/stepping.h"
 
@@ -85,9 +86,6 @@ class BackwardEulerIntegrator {
   /// sets); false when there is none.
   bool newton_direction(const Body& body, const Potential& potential, const Points& x, bool& project,
                         const Eigen::VectorXd& rhs, Eigen::VectorXd& dx, NewtonStatus& status, StageTimer& timer);
-  /// Solves H x = b by CG preconditioned with the last factor; false if it
-  /// needs more than pcg_max_iterations (the caller then refactors).
-  bool lagged_pcg(const Eigen::VectorXd& b, Eigen::VectorXd& x, NewtonStatus& status);
 
   BackwardEulerSettings settings_;
   Constraints constraints_;
@@ -97,8 +95,7 @@ class BackwardEulerIntegrator {
   SelfCollisions self_collisions_;
   VolumeProjection volume_;
   EmbeddedTension tension_;
-  struct Factor;
-  std::unique_ptr<Factor> factor_;
+  SparseCholesky cholesky_;  // its analysis kept per Hessian pattern, its factor lagged
   std::vector<std::uint8_t> fixed_;
   std::vector<Matrix12> blocks_;         // the element Hessians, kept across iterations
   std::vector<Matrix9d> surface_blocks_;  // the surface triangles'
