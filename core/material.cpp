@@ -93,6 +93,7 @@ Material material_preset(std::string_view name) {
     m.yield_stress = p.yield_stress;
     m.flow_rate = p.flow_rate;
     m.incompressible = true;
+    m.min_mass_fraction = kMinMassFraction;
     return m;
   }
   throw Error(fmt::format("unknown material preset '{}' (expected one of {})", name,

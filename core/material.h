@@ -18,6 +18,12 @@ std::string_view to_string(ElasticModel model);
 /// "neo_hookean", "fixed_corotated", "stable_neo_hookean"; goo::Error otherwise.
 ElasticModel elastic_model_from_string(std::string_view name);
 
+/// The lightest a node may be, as a fraction of a full node's mass (W&T
+/// sec. 6): a lattice node just outside the surface would otherwise have
+/// next to no mass and stop explicit time stepping. The presets and every
+/// scene material start with it.
+inline constexpr double kMinMassFraction = 0.05;
+
 struct Material {
   double density = 1000.0;                                        ///< ρ, kg/m³
   double youngs_modulus = 1e5;                                    ///< E, Pa
@@ -49,7 +55,8 @@ void validate(const Material& material, std::string_view where = "material", cha
 /// The five behaviours of W&T figure 3, as named presets (our values: the
 /// paper gives its parameters only in a figure). Density 1000 kg/m³,
 /// Poisson 0.3, fixed corotated elasticity, incompressible (all five are
-/// water-based gels and fluids or rubber: docs/physics.md):
+/// water-based gels and fluids or rubber: docs/physics.md), light nodes
+/// clamped at kMinMassFraction:
 /// | preset          | E (Pa) | β (Pa·s) | PY (Pa) | ν (1/s) |
 /// | rigid_brick     | 1e6    | 20       | ∞       | 0       |
 /// | viscous_ooze    | 1e4    | 100      | 5       | 50      |

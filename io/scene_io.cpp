@@ -173,14 +173,12 @@ TriangleMesh read_primitive(Node n, MemoryBudget& budget, bool build = true) {
   return mesh;
 }
 
-/// In a scene, light nodes are clamped to 5% of a full node's mass unless
-/// the scene says otherwise (W&T sec. 6): a lattice node just outside the
-/// surface would otherwise have no mass and stop explicit time stepping.
-constexpr double kSceneMinMassFraction = 0.05;
-
+/// A preset, or the default material; in a scene both clamp light nodes at
+/// kMinMassFraction unless the scene says otherwise.
 Material scene_material(std::optional<std::string> preset) {
-  Material m = preset ? material_preset(*preset) : Material{};
-  m.min_mass_fraction = kSceneMinMassFraction;
+  if (preset) return material_preset(*preset);
+  Material m;
+  m.min_mass_fraction = kMinMassFraction;
   return m;
 }
 

@@ -178,8 +178,16 @@ TEST(Scene, TheStaticIntegratorNeedsHeldCompressibleBodies) {
 }
 
 TEST(Scene, PresetsAreIncompressibleAndTheKeySwitchesItPerObject) {
-  for (const std::string& name : material_preset_names()) EXPECT_TRUE(material_preset(name).incompressible) << name;
+  for (const std::string& name : material_preset_names()) {
+    EXPECT_TRUE(material_preset(name).incompressible) << name;
+    EXPECT_EQ(material_preset(name).min_mass_fraction, kMinMassFraction) << name;  // its one home
+  }
   EXPECT_FALSE(Material{}.incompressible);  // a material given only by its constants is not
+  // ... but in a scene it has the presets' lightest node, unless the scene says otherwise.
+  EXPECT_EQ(parse(with_object(R"({"primitive": {"type": "box", "size": [0.2, 0.2, 0.2]}, "material": {"youngs_modulus": 1e4}, "lattice_spacing": 0.05})"))
+                .objects[0]
+                .material.min_mass_fraction,
+            kMinMassFraction);
   const auto cube_with = [](const std::string& material) {
     return with_object(fmt::format(
         R"({{"primitive": {{"type": "box", "size": [0.2, 0.2, 0.2]}}, "material": {}, "lattice_spacing": 0.05}})",
