@@ -662,6 +662,10 @@ void Simulation::load(const StateRecord& r) {
     body.embedding.bary = r.matrix(p + "embedding_bary", 4);
     b.pinned = r.indices(p + "pinned");
     body.rest_material_volume = r.real(p + "rest_material_volume");
+    // A tetrahedral-mesh body's checkpoint written before make_body set this
+    // holds 0; its material fills its elements, so it is Σ W, as make_body
+    // sets it now (a lattice body with 0 is refused below).
+    if (!b.lattice && body.rest_material_volume == 0.0) body.rest_material_volume = body.rest_volumes.sum();
     // Every count must agree, and every id be in range, before anything uses them.
     const auto nn = body.positions.rows(), ne = body.tets.rows();
     const auto nv = static_cast<Eigen::Index>(body.embedding.parent.size());
