@@ -13,6 +13,7 @@
 #include "io/atomic_file.h"
 #include "io/checkpoint.h"
 #include "io/surface_mesh_io.h"
+#include "solvers/checkpoint_schema.h"
 
 namespace goo::app {
 namespace {
@@ -113,24 +114,26 @@ int describe_checkpoint(const std::filesystem::path& path, const StateRecord& r,
   j["file"] = path.string();
   j["kind"] = "checkpoint";
   j["format_version"] = io::kCheckpointFormatVersion;
-  j["time"] = r.real("time");
-  j["frame"] = r.integer("run/frame");
-  j["steps"] = r.integer("steps");
-  j["remeshes"] = r.integer("remeshes");
-  j["last_time_step"] = r.real("last_time_step");
-  j["scene"] = r.string("scene/source");
-  const auto count = r.integer("bodies/count");
+  const checkpoint::Clock clock = checkpoint::get_clock(r);
+  const checkpoint::RunFields run = checkpoint::get_run(r);
+  const std::string& scene = checkpoint::get_scene_source(r);
+  j["time"] = clock.time;
+  j["frame"] = run.frame;
+  j["steps"] = clock.steps;
+  j["remeshes"] = clock.remeshes;
+  j["last_time_step"] = clock.last_time_step;
+  j["scene"] = scene;
+  const auto count = checkpoint::get_body_count(r);
   j["bodies"] = nlohmann::json::array();
   for (std::int64_t i = 0; i < count; ++i) {
-    const std::string p = fmt::format("bodies/{}/", i);
-    const Eigen::VectorXd m = r.vector(p + "masses");
-    j["bodies"].push_back({{"name", r.string(p + "name")},
-                           {"nodes", r.points(p + "positions").rows()},
-                           {"elements", r.tets(p + "tets").rows()},
-                           {"surface_vertices", r.indices(p + "embedding_parent").size()},
-                           {"surface_triangles", r.triangles(p + "surface_triangles").rows()},
-                           {"mass", m.sum()},
-                           {"lattice", r.integer(p + "lattice") != 0}});
+    const checkpoint::StoredBody b = checkpoint::get_body(r, static_cast<std::size_t>(i));
+    j["bodies"].push_back({{"name", b.name},
+                           {"nodes", b.body.positions.rows()},
+                           {"elements", b.body.tets.rows()},
+                           {"surface_vertices", b.body.embedding.parent.size()},
+                           {"surface_triangles", b.body.surface_triangles.rows()},
+                           {"mass", b.body.masses.sum()},
+                           {"lattice", b.lattice}});
   }
   if (json) {
     out << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << '\n';  // file names need not be UTF-8
@@ -138,11 +141,11 @@ int describe_checkpoint(const std::filesystem::path& path, const StateRecord& r,
   }
   auto row = [&](std::string_view key, const std::string& value) { fmt::print(out, "{:<15}{}\n", key, value); };
   row("file", fmt::format("{} (goo checkpoint, format version {})", path.string(), io::kCheckpointFormatVersion));
-  row("scene", r.string("scene/source"));
-  row("time", fmt::format("{:.6g} s", r.real("time")));
-  row("frame", std::to_string(r.integer("run/frame")));
-  row("steps", std::to_string(r.integer("steps")));
-  row("re-meshes", std::to_string(r.integer("remeshes")));
+  row("scene", scene);
+  row("time", fmt::format("{:.6g} s", clock.time));
+  row("frame", std::to_string(run.frame));
+  row("steps", std::to_string(clock.steps));
+  row("re-meshes", std::to_string(clock.remeshes));
   for (const auto& b : j["bodies"]) {
     row("body", fmt::format("{}: {} nodes, {} elements, {} surface triangles, mass {:.6g} kg", b["name"].get<std::string>(),
                             b["nodes"].get<long>(), b["elements"].get<long>(), b["surface_triangles"].get<long>(),

@@ -28,6 +28,7 @@
 #include "io/scene_io.h"
 #include "io/surface_mesh_io.h"
 #include "meshing/surface_intersections.h"
+#include "solvers/checkpoint_schema.h"
 #include "solvers/linear_algebra_threads.h"
 #include "solvers/simulation.h"
 
@@ -250,40 +251,8 @@ struct Outputs {
 
 /// What a checkpoint adds to the simulation's own state.
 void add_run_fields(StateSink& record, const Scene& scene, int frame, const SimulationTotals& initial) {
-  record.put("run/frame", static_cast<std::int64_t>(frame));
-  record.put("run/initial_mass", initial.mass);
-  record.put("run/initial_volume", initial.volume);
-  record.put_matrix("run/initial_momentum", initial.momentum.transpose());
-  record.put_string("scene/text", scene.text);
-  record.put_string("scene/source", scene.source);
-  record.put_string("scene/base_folder", scene.base_folder);
-  record.put("scene/obstacle_meshes/count", static_cast<std::int64_t>(scene.obstacle_meshes.size()));
-  std::int64_t k = 0;
-  for (const auto& [field, mesh] : scene.obstacle_meshes) {
-    const std::string p = fmt::format("scene/obstacle_meshes/{}/", k++);
-    record.put_string(p + "field", field);
-    record.put_matrix(p + "vertices", mesh.vertices);
-    record.put(p + "triangles", mesh.triangles);
-  }
-}
-
-/// The mesh obstacles' meshes a checkpoint keeps (none in one written before
-/// goo kept them: those are read from their files), checked as a file is.
-std::map<std::string, TriangleMesh> stored_obstacle_meshes(const StateRecord& record) {
-  std::map<std::string, TriangleMesh> meshes;
-  if (!record.has("scene/obstacle_meshes/count")) return meshes;
-  const std::int64_t count = record.integer("scene/obstacle_meshes/count");
-  if (count < 0 || count > 100000)
-    throw Error(fmt::format("scene/obstacle_meshes/count is {}, not a number of obstacles", count));
-  for (std::int64_t k = 0; k < count; ++k) {
-    const std::string p = fmt::format("scene/obstacle_meshes/{}/", k);
-    TriangleMesh mesh;
-    mesh.vertices = record.points(p + "vertices");
-    mesh.triangles = record.triangles(p + "triangles");
-    validate_surface(mesh, p + "vertices and triangles");
-    meshes[record.string(p + "field")] = std::move(mesh);
-  }
-  return meshes;
+  checkpoint::put_run(record, checkpoint::RunFields{frame, initial.mass, initial.volume, initial.momentum});
+  checkpoint::put_scene(record, scene);
 }
 
 /// RUN for a checkpoint RUN/checkpoints/frame_NNNNN.h5, if it is one.
@@ -351,7 +320,7 @@ RunPlan plan_run(const RunOptions& options) {
     plan.resumed = io::read_checkpoint(*options.resume);
     const StateRecord& resumed = *plan.resumed;
     const std::string& text = reading_checkpoint(*options.resume, "", [&]() -> const std::string& {
-      return resumed.string("scene/text");
+      return checkpoint::get_scene_text(resumed);
     });
     if (options.scene) io::require_regular_file(*options.scene, "the scene file");
     if (options.scene && slurp(*options.scene) != text)
@@ -361,12 +330,13 @@ RunPlan plan_run(const RunOptions& options) {
     // The bodies come from the checkpoint and the obstacles' meshes too: a
     // run resumes without the files it began from.
     const std::map<std::string, TriangleMesh> obstacle_meshes =
-        reading_checkpoint(*options.resume, "", [&] { return stored_obstacle_meshes(resumed); });
+        reading_checkpoint(*options.resume, "", [&] { return checkpoint::get_obstacle_meshes(resumed); });
     io::SceneInputs inputs;
     inputs.objects_from_checkpoint = true;
     inputs.obstacle_meshes = &obstacle_meshes;
     scene = reading_checkpoint(*options.resume, "its scene: ", [&] {
-      return io::parse_scene(text, resumed.string("scene/source"), resumed.string("scene/base_folder"), inputs);
+      return io::parse_scene(text, checkpoint::get_scene_source(resumed), checkpoint::get_scene_base_folder(resumed),
+                             inputs);
     });
   } else if (options.scene) {
     scene = io::read_scene(*options.scene);
@@ -411,19 +381,17 @@ int resumed_frame(const fs::path& checkpoint, const StateRecord& resumed, const 
   const SimulationTotals loaded = sim.totals();  // the meshes the run goes on from
   initial.nodes = loaded.nodes, initial.elements = loaded.elements;
   initial.surface_vertices = loaded.surface_vertices, initial.surface_triangles = loaded.surface_triangles;
-  const std::int64_t stored_frame = resumed.integer("run/frame");
+  const checkpoint::RunFields run = checkpoint::get_run(resumed);
+  const std::int64_t stored_frame = run.frame;
   if (stored_frame < 0 || stored_frame > 99999)
     throw Error(fmt::format("{}: run/frame is {}, not a frame number (0 to 99999)", checkpoint.string(), stored_frame));
   const int frame = static_cast<int>(stored_frame);
   if (const double expected = frame / scene.output.fps; !(std::abs(sim.time() - expected) <= 1e-9 * std::max(1.0, expected)))
     throw Error(fmt::format("{}: time is {} s, but frame {} at {} fps is at {} s", checkpoint.string(), sim.time(),
                             frame, scene.output.fps, expected));
-  initial.mass = resumed.real("run/initial_mass");
-  initial.volume = resumed.real("run/initial_volume");
-  const Eigen::MatrixXd momentum = resumed.matrix("run/initial_momentum", 3);
-  if (momentum.rows() != 1)
-    throw Error(fmt::format("run/initial_momentum must be one row of 3 values, got {} rows", momentum.rows()));
-  initial.momentum = momentum.row(0).transpose();
+  initial.mass = run.initial_mass;
+  initial.volume = run.initial_volume;
+  initial.momentum = run.initial_momentum;
   if (!(std::isfinite(initial.mass) && initial.mass > 0.0 && std::isfinite(initial.volume) && initial.volume > 0.0 &&
         initial.momentum.allFinite()))
     throw Error(fmt::format("{}: run/initial_mass, run/initial_volume or run/initial_momentum is not a body's "

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "core/error.h"
 #include "solvers/stepping.h"
@@ -182,7 +183,7 @@ struct BackwardEulerIntegrator::Potential {
 
 bool BackwardEulerIntegrator::newton_direction(const Body& body, const Potential& potential, const Points& x,
                                                bool& project, const Eigen::VectorXd& rhs, Eigen::VectorXd& dx,
-                                               NewtonStatus& status, StageTimer& timer) {
+                                               StepReport& status, StageTimer& timer) {
   // H = M/Δt² + Σ K_e + Σ C_e/Δt + Σ_t Wₜᵀ σ∂²Aₜ Wₜ. The element and
   // triangle Hessians are first taken as they are: M/Δt² usually keeps the sum positive definite, and then
   // Newton converges quadratically. Only if the factorisation finds H
@@ -247,7 +248,7 @@ namespace {
 /// the step already tiny. False when twenty halvings do not decrease E.
 template <class Energy>
 bool line_search(Energy&& energy, const Eigen::Map<const Points>& step, double slope, Points& x, double& E,
-                 NewtonStatus& status) {
+                 StepReport& status) {
   double alpha = 1.0;
   Points trial = x + step;
   const bool below_resolution = -slope <= 1e-10 * std::abs(E);
@@ -269,7 +270,7 @@ bool line_search(Energy&& energy, const Eigen::Map<const Points>& step, double s
 
 }  // namespace
 
-bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& status) {
+bool BackwardEulerIntegrator::try_step(Body& body, double dt, StepReport& status) {
   StageTimer timer;
   const Points& xn = body.positions;
   const double t_next = time_ + dt;
@@ -284,7 +285,7 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, NewtonStatus& stat
 }
 
 bool BackwardEulerIntegrator::newton(Body& body, Potential& potential, Points& x, StageTimer& timer,
-                                     NewtonStatus& status) {
+                                     StepReport& status) {
   const Index nn = body.num_nodes();
   const Points& xn = potential.xn;
   const double scale = potential.force_scale(x, settings_.gravity.norm(), !constraints_.prescribed.empty());
@@ -292,7 +293,7 @@ bool BackwardEulerIntegrator::newton(Body& body, Potential& potential, Points& x
   if (!hessian_.matches(body.tets, nn, potential.surface_nodes.nodes))
     hessian_.build(body.tets, nn, potential.surface_nodes.nodes);
 
-  status = NewtonStatus{};
+  status = StepReport{};
   status.dt = potential.dt;
   double E = potential.energy(x);
   bool project = false;
@@ -335,7 +336,7 @@ bool BackwardEulerIntegrator::newton(Body& body, Potential& potential, Points& x
   return false;
 }
 
-NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
+StepReport BackwardEulerIntegrator::step(Body& body, double max_dt) {
   fixed_.assign(at(body.num_nodes()), 0);
   for (const Index n : constraints_.pinned) fixed_[at(n)] = 1;
   for (const auto& motion : constraints_.prescribed)
@@ -344,7 +345,7 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
   double dt = std::min(settings_.time_step, max_dt);
   if (!(dt > 0.0)) throw Error(fmt::format("backward_euler: non-positive time step {} s", dt));
   const Points x0 = body.positions, v0 = body.velocities;
-  NewtonStatus status;
+  StepReport status;
   if (settings_.statics) {
     solve_static(body, dt, status);
   } else {
@@ -387,12 +388,13 @@ NewtonStatus BackwardEulerIntegrator::step(Body& body, double max_dt) {
   times_.collisions += timer.lap() - restoring;
   if (constraints_.self_collisions) {
     SelfCollisionParameters parameters = *constraints_.self_collisions;
-    // A halved step responds at half the displacement; a static step is its own reference.
-    parameters.reference_step = settings_.statics ? dt : settings_.time_step;
+    last_dt_ = dt;
+    parameters.reference_step = reference_step();
     status.self_collisions = self_collisions_.resolve_step(body, x0, dt, fixed_, parameters);
   }
   times_.self_collisions += timer.lap();
   time_ = t_next;
+  last_dt_ = dt;
   status.times = times_;
   return status;
 }
@@ -407,7 +409,7 @@ void BackwardEulerIntegrator::set_time(double t) {
   loaded_ = t > 0.0 ? gravity_factor(t) : 0.0;
 }
 
-void BackwardEulerIntegrator::solve_static(Body& body, double dt, NewtonStatus& status) {
+void BackwardEulerIntegrator::solve_static(Body& body, double dt, StepReport& status) {
   bool any_fixed = false;
   for (const std::uint8_t f : fixed_) any_fixed = any_fixed || f != 0;
   if (!any_fixed)
@@ -422,7 +424,7 @@ void BackwardEulerIntegrator::solve_static(Body& body, double dt, NewtonStatus& 
   const double t_next = time_ + dt;
   const double from = loaded_, to = gravity_factor(t_next);
   const Points x_from = body.positions;
-  status = NewtonStatus{};
+  status = StepReport{};
   status.dt = dt;
   double s = 0.0, ds = 1.0;
   while (s < 1.0) {
@@ -435,7 +437,7 @@ void BackwardEulerIntegrator::solve_static(Body& body, double dt, NewtonStatus& 
         const Eigen::Vector3d end = motion.position(n, body.rest_positions.row(n).transpose(), t_next);
         x.row(n) = ((1.0 - s_next) * x_from.row(n).transpose() + s_next * end).transpose();
       }
-    NewtonStatus attempt;
+    StepReport attempt;
     const bool converged = newton(body, potential, x, timer, attempt);
     status.iterations += attempt.iterations;
     status.line_search_steps += attempt.line_search_steps;
@@ -456,8 +458,31 @@ void BackwardEulerIntegrator::solve_static(Body& body, double dt, NewtonStatus& 
   loaded_ = to;
 }
 
-int BackwardEulerIntegrator::advance_to(Body& body, double t_end) {
-  return step_until(time_, t_end, [&](double max_dt) { step(body, max_dt); });
+double BackwardEulerIntegrator::next_time_step(Body& /*body*/, double max_dt) {
+  return std::min(settings_.time_step, max_dt);
+}
+
+void BackwardEulerIntegrator::begin_step(Body& body, double dt) {
+  const double t_end = time_ + dt;
+  pending_ = StepReport{};
+  pending_.steps = 0;
+  double t = time_;
+  step_until(t, t_end, [&](double left) {
+    pending_ += step(body, left);
+    t = time_;
+  });
+  set_time(t_end);
+}
+
+StepReport BackwardEulerIntegrator::finish_step(Body& /*body*/) { return std::exchange(pending_, StepReport{}); }
+
+double BackwardEulerIntegrator::reference_step() const {
+  return settings_.statics ? last_dt_ : settings_.time_step;
+}
+
+std::string_view BackwardEulerIntegrator::failure_advice() const {
+  return settings_.statics ? "a larger max_halvings or more max_newton_iterations"
+                           : "a smaller backward_euler.time_step or more max_newton_iterations";
 }
 
 }  // namespace goo

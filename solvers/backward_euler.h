@@ -22,49 +22,39 @@
 #include "core/settings.h"
 #include "core/volume_projection.h"
 #include "solvers/embedded_tension.h"
+#include "solvers/integrator.h"
 #include "solvers/sparse_cholesky.h"
 #include "solvers/sparse_hessian.h"
 #include "solvers/stepping.h"
 
 namespace goo {
 
-
-
-/// What one step did.
-struct NewtonStatus {
-  double dt = 0.0;             ///< the step taken, s
-  int iterations = 0;          ///< Newton iterations of the accepted attempt
-  int line_search_steps = 0;   ///< halvings of the Newton step, all iterations
-  int halvings = 0;            ///< retries at half Δt before it converged (static: halvings of the load increment)
-  int factorisations = 0;      ///< numerical factorisations, all attempts
-  int pcg_iterations = 0;      ///< lagged_pcg: CG iterations, all attempts
-  double residual = 0.0;       ///< final ‖∇E‖∞ / force scale
-  std::vector<double> residuals;  ///< after each iteration (convergence history)
-  Index plastic_elements = 0;
-  Index collisions = 0;
-  SelfCollisionStats self_collisions;  ///< the surface against itself
-  VolumeProjectionStats volume;        ///< incompressible materials
-  StepTimes times;  ///< wall seconds by stage, all attempts
-};
-
-class BackwardEulerIntegrator {
+class BackwardEulerIntegrator final : public Integrator {
  public:
   BackwardEulerIntegrator(BackwardEulerSettings settings, Constraints constraints);
   ~BackwardEulerIntegrator();
 
   /// One step of at most min(settings.time_step, max_dt). goo::Error if it
   /// does not converge even after max_halvings halvings.
-  NewtonStatus step(Body& body, double max_dt);
-  /// Steps until t_end exactly; returns the steps taken.
-  int advance_to(Body& body, double t_end);
+  StepReport step(Body& body, double max_dt) override;
+  /// min(settings.time_step, max_dt).
+  double next_time_step(Body& body, double max_dt) override;
+  /// Steps to time() + dt (several steps when Newton makes it halve); the
+  /// report of them all comes from finish_step, which has nothing left to do.
+  void begin_step(Body& body, double dt) override;
+  StepReport finish_step(Body& body) override;
 
-  [[nodiscard]] double time() const { return time_; }
+  [[nodiscard]] double time() const override { return time_; }
   /// Sets the clock; a static solve takes the body to be in equilibrium
   /// at the loads of time t (none at t = 0).
-  void set_time(double t);
+  void set_time(double t) override;
   /// Forget the lagged factor, so that the next solve refactors: after this
   /// the integrator's results depend on the body's state alone (a restart point).
-  void invalidate();
+  void invalidate() override;
+  /// settings.time_step (a halved step responds at half the displacement);
+  /// a static step is its own reference.
+  [[nodiscard]] double reference_step() const override;
+  [[nodiscard]] std::string_view failure_advice() const override;
   /// Symbolic factorisations so far (one per mesh topology).
   [[nodiscard]] int symbolic_factorisations() const;
   /// The incremental potential at x for the current step (exposed for tests).
@@ -72,12 +62,12 @@ class BackwardEulerIntegrator {
 
  private:
   struct Potential;
-  bool try_step(Body& body, double dt, NewtonStatus& status);
+  bool try_step(Body& body, double dt, StepReport& status);
   /// Newton with a line search on `potential` from the first guess x;
   /// on convergence the body takes x (and its velocities).
-  bool newton(Body& body, Potential& potential, Points& x, StageTimer& timer, NewtonStatus& status);
+  bool newton(Body& body, Potential& potential, Points& x, StageTimer& timer, StepReport& status);
   /// Static: the equilibrium at the loads of time_ + dt, in load steps.
-  void solve_static(Body& body, double dt, NewtonStatus& status);
+  void solve_static(Body& body, double dt, StepReport& status);
   /// Static: the gravity's load factor at time t (settings.gravity_ramp).
   [[nodiscard]] double gravity_factor(double t) const;
   /// The Newton direction dx of H dx = rhs at x (H assembled there; its
@@ -85,7 +75,7 @@ class BackwardEulerIntegrator {
   /// `project` is set, which an indefinite H or a non-descent direction
   /// sets); false when there is none.
   bool newton_direction(const Body& body, const Potential& potential, const Points& x, bool& project,
-                        const Eigen::VectorXd& rhs, Eigen::VectorXd& dx, NewtonStatus& status, StageTimer& timer);
+                        const Eigen::VectorXd& rhs, Eigen::VectorXd& dx, StepReport& status, StageTimer& timer);
 
   BackwardEulerSettings settings_;
   Constraints constraints_;
@@ -100,7 +90,9 @@ class BackwardEulerIntegrator {
   std::vector<Matrix12> blocks_;         // the element Hessians, kept across iterations
   std::vector<Matrix9d> surface_blocks_;  // the surface triangles'
   double time_ = 0.0;
-  double loaded_ = 0.0;  // static: the gravity factor the body is in equilibrium with
+  double loaded_ = 0.0;   // static: the gravity factor the body is in equilibrium with
+  double last_dt_ = 0.0;  // the last step's Δt
+  StepReport pending_;    // begin_step's steps, until finish_step
   StepTimes times_;  // this step's, by stage
 };
 

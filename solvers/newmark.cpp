@@ -95,7 +95,7 @@ void NewmarkIntegrator::impose_velocities(const Body& body, double t_next, doubl
     }
 }
 
-void NewmarkIntegrator::solve_damped(const Body& body, double h, const Points& rhs, Points& v, StepStatus& status) {
+void NewmarkIntegrator::solve_damped(const Body& body, double h, const Points& rhs, Points& v, StepReport& status) {
   const Index nn = body.num_nodes();
   const Eigen::VectorXd& m = body.masses;
   if (body.material.viscosity == 0.0) {
@@ -172,7 +172,7 @@ void NewmarkIntegrator::precondition() {
 }
 
 void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& rhs, const Points* guess, Points& v,
-                                     StepStatus& status) {
+                                     StepReport& status) {
   const Index nn = body.num_nodes();
   // r₀ = rhs − A v at the velocities given: the impulse of every force of
   // the half step, h (f_e + M g − C v). The solve stops when the residual
@@ -273,15 +273,15 @@ double NewmarkIntegrator::next_time_step(Body& body, double max_dt) {
   return dt;
 }
 
-StepStatus NewmarkIntegrator::step(Body& body, double max_dt) {
+StepReport NewmarkIntegrator::step(Body& body, double max_dt) {
   begin_step(body, next_time_step(body, max_dt));
   return finish_step(body);
 }
 
 void NewmarkIntegrator::begin_step(Body& body, double dt) {
   ensure_forces(body);
-  pending_ = StepStatus{};
-  StepStatus& status = pending_;
+  pending_ = StepReport{};
+  StepReport& status = pending_;
   step_dt_ = dt;
   StageTimer timer;
   const double h = 0.5 * dt;
@@ -333,8 +333,8 @@ void NewmarkIntegrator::begin_step(Body& body, double dt) {
   times_.self_collisions += timer.lap();
 }
 
-StepStatus NewmarkIntegrator::finish_step(Body& body) {
-  StepStatus status = std::exchange(pending_, StepStatus{});
+StepReport NewmarkIntegrator::finish_step(Body& body) {
+  StepReport status = std::exchange(pending_, StepReport{});
   StageTimer timer;
   const double dt = step_dt_;
   const double h = 0.5 * dt;
@@ -372,10 +372,6 @@ StepStatus NewmarkIntegrator::finish_step(Body& body) {
   status.dt = dt;
   status.times = std::exchange(times_, StepTimes{});
   return status;
-}
-
-int NewmarkIntegrator::advance_to(Body& body, double t_end) {
-  return step_until(time_, t_end, [&](double max_dt) { step(body, max_dt); });
 }
 
 }  // namespace goo

@@ -12,47 +12,28 @@
 #include "core/surface_tension.h"
 #include "core/volume_projection.h"
 #include "solvers/embedded_tension.h"
+#include "solvers/integrator.h"
 #include "solvers/stepping.h"
 
 namespace goo {
 
-
-/// What one step did.
-struct StepStatus {
-  double dt = 0.0;  ///< the step taken, s
-  DampingSolveStats damping;  ///< both damping solves together
-  Index plastic_elements = 0;
-  Index collisions = 0;  ///< element corrections of the embedded surface, positions and velocities
-  SelfCollisionStats self_collisions;  ///< the surface against itself
-  VolumeProjectionStats volume;        ///< incompressible materials
-  StepTimes times;       ///< wall seconds by stage
-};
-
-class NewmarkIntegrator {
+class NewmarkIntegrator final : public Integrator {
  public:
   NewmarkIntegrator(NewmarkSettings settings, Constraints constraints);
 
-  /// Advances `body` by one step of at most `max_dt` (the time left to the
-  /// next frame, say), chosen as the minimum of the CFL bound, the
-  /// strain-rate bound and max_time_step.
-  StepStatus step(Body& body, double max_dt);
+  /// One step of at most `max_dt`, chosen as the minimum of the CFL bound,
+  /// the strain-rate bound and max_time_step: next_time_step, begin_step
+  /// (to xⁿ⁺¹ with v½, contacts and self-collisions included) and
+  /// finish_step (the forces at xⁿ⁺¹, vⁿ⁺¹) in a row.
+  StepReport step(Body& body, double max_dt) override;
+  double next_time_step(Body& body, double max_dt) override;
+  void begin_step(Body& body, double dt) override;
+  StepReport finish_step(Body& body) override;
 
-  /// The same step in two halves, for bodies stepped together (collisions
-  /// between bodies act between them): next_time_step gives the step this
-  /// body would take (at most max_dt); begin_step moves it to xⁿ⁺¹ with v½,
-  /// contacts and its own self-collisions included; finish_step evaluates
-  /// the forces at xⁿ⁺¹ and completes vⁿ⁺¹. step = the three in a row.
-  double next_time_step(Body& body, double max_dt);
-  void begin_step(Body& body, double dt);
-  StepStatus finish_step(Body& body);
-
-  /// Steps until the time reaches t_end exactly; returns the steps taken.
-  int advance_to(Body& body, double t_end);
-
-  [[nodiscard]] double time() const { return time_; }
-  void set_time(double t) { time_ = t; }
+  [[nodiscard]] double time() const override { return time_; }
+  void set_time(double t) override { time_ = t; }
   /// Forget cached forces (after the body's mesh or state changed outside).
-  void invalidate() {
+  void invalidate() override {
     have_forces_ = false;
     volume_.reset();
     increment_.resize(0, 3);  // no warm start: the next steps depend on the body's state alone
@@ -63,7 +44,7 @@ class NewmarkIntegrator {
   /// The last stable_time_step without its strain-rate bound (the elastic
   /// and capillary bounds and max_time_step): the step at which collision
   /// responses reach their full size.
-  [[nodiscard]] double reference_step() const { return reference_step_; }
+  [[nodiscard]] double reference_step() const override { return reference_step_; }
 
  private:
   void ensure_forces(Body& body);
@@ -72,10 +53,10 @@ class NewmarkIntegrator {
   void evaluate_forces(Body& body, double plastic_dt);
   void apply_gravity_and_forces(const Body& body, const Points& v, double half_dt, Points& rhs) const;
   /// Solves (M + h C) v = rhs for the free nodes, v fixed at constrained ones.
-  void solve_damped(const Body& body, double h, const Points& rhs, Points& v, StepStatus& status);
+  void solve_damped(const Body& body, double h, const Points& rhs, Points& v, StepReport& status);
   /// solve_damped's CG on a right-hand side scaled to about unit size.
   void remove_net_residual(const Body& body, const Points& r, Points& v) const;
-  void solve_scaled(const Body& body, double h, const Points& rhs, const Points* guess, Points& v, StepStatus& status);
+  void solve_scaled(const Body& body, double h, const Points& rhs, const Points* guess, Points& v, StepReport& status);
   /// out = (M + hC) x (Cp_ = −C x on the way).
   void apply_system(const Body& body, double h, const Points& x, Points& out);
   /// |r|_M⁻¹ = √(rᵀM⁻¹r): a residual impulse measured as a velocity.
@@ -98,7 +79,7 @@ class NewmarkIntegrator {
   EmbeddedTension tension_;
   Points forces_;  // f_e at the current positions
   StepTimes times_;  // this step's, by stage
-  StepStatus pending_;  // the step begun, until finished
+  StepReport pending_;  // the step begun, until finished
   double step_dt_ = 0.0;
   double reference_step_ = 0.0;
   bool have_forces_ = false;

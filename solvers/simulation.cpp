@@ -15,6 +15,7 @@
 #include "core/surface_geometry.h"
 #include "meshing/remesh_trigger.h"
 #include "solvers/backward_euler.h"
+#include "solvers/checkpoint_schema.h"
 #include "solvers/newmark.h"
 #include "solvers/remesh.h"
 #include "solvers/stepping.h"
@@ -38,16 +39,6 @@ std::vector<Index> nodes_in(const Points& x, const std::vector<PinnedRegion>& re
         break;
       }
   return out;
-}
-
-/// Newton failed even at the smallest Δt (static: the smallest load step): not bad input.
-NumericalFailure newton_failure(std::int64_t step, double t, const std::string& body, const Error& e,
-                                IntegratorKind kind) {
-  return NumericalFailure(fmt::format("numerical failure at step {} (t = {:.6g} s): body '{}': {}; try {}", step, t,
-                                      body, e.what(),
-                                      kind == IntegratorKind::statics
-                                          ? "a larger max_halvings or more max_newton_iterations"
-                                          : "a smaller backward_euler.time_step or more max_newton_iterations"));
 }
 
 /// Coordinates a state may hold, m: far beyond any scene (a body at
@@ -103,22 +94,6 @@ void check_values(const Body& body, const std::string& prefix, const std::string
 
 }  // namespace
 
-/// The body's integrator, one of the two.
-struct Simulation::Stepper {
-  std::unique_ptr<NewmarkIntegrator> newmark;
-  std::unique_ptr<BackwardEulerIntegrator> backward_euler;
-
-  [[nodiscard]] double time() const { return newmark ? newmark->time() : backward_euler->time(); }
-  void set_time(double t) {
-    if (newmark) newmark->set_time(t);
-    if (backward_euler) backward_euler->set_time(t);
-  }
-  void invalidate() {
-    if (newmark) newmark->invalidate();
-    if (backward_euler) backward_euler->invalidate();
-  }
-};
-
 Simulation::Simulation(const Scene& scene, const StateRecord& state) : scene_(scene) {
   for (auto& object : scene_.objects) {
     object.surface.reset();
@@ -134,7 +109,7 @@ Simulation::Simulation(const Scene& scene, const StateRecord& state) : scene_(sc
     bodies_.push_back(std::move(b));
   }
   together_ = bodies_.size() > 1 && scene_.body_collisions.enabled;
-  steppers_.resize(bodies_.size());
+  integrators_.resize(bodies_.size());
   load(state);
 }
 
@@ -178,7 +153,7 @@ Simulation::Simulation(const Scene& scene) : scene_(scene) {
     bodies_.push_back(std::move(b));
   }
   together_ = bodies_.size() > 1 && scene_.body_collisions.enabled;
-  steppers_.resize(bodies_.size());
+  integrators_.resize(bodies_.size());
   for (std::size_t i = 0; i < bodies_.size(); ++i) attach(i, time_);
 }
 
@@ -213,22 +188,22 @@ void Simulation::attach(std::size_t i, double time) {
   }
   // Bodies stepped together meet their own surface in the joint stage.
   if (bodies_[i].self_collisions.enabled && !together_) constraints.self_collisions = self_collision_parameters(i);
-  auto stepper = std::make_unique<Stepper>();
+  std::unique_ptr<Integrator> integrator;
   if (scene_.integrator == IntegratorKind::newmark) {
     NewmarkSettings settings = scene_.newmark;
     settings.gravity = scene_.gravity;
-    stepper->newmark = std::make_unique<NewmarkIntegrator>(settings, std::move(constraints));
+    integrator = std::make_unique<NewmarkIntegrator>(settings, std::move(constraints));
   } else {
     BackwardEulerSettings settings = scene_.backward_euler;  // statics set for the static integrator
     settings.gravity = scene_.gravity;
-    stepper->backward_euler = std::make_unique<BackwardEulerIntegrator>(settings, std::move(constraints));
+    integrator = std::make_unique<BackwardEulerIntegrator>(settings, std::move(constraints));
   }
-  stepper->set_time(time);
-  steppers_[i] = std::move(stepper);
+  integrator->set_time(time);
+  integrators_[i] = std::move(integrator);
 }
 
 void Simulation::make_restart_point() {
-  for (auto& s : steppers_) s->invalidate();
+  for (auto& integrator : integrators_) integrator->invalidate();
 }
 
 void Simulation::check_state(std::size_t i) const {
@@ -254,7 +229,7 @@ void Simulation::check_state(std::size_t i) const {
   }
   if (finite && worst_speed <= scene_.limits.max_speed) return;
   const Index corner = body.incidence.corners[at(body.incidence.offsets[at(worst)])];
-  const double t = steppers_[i]->time();
+  const double t = integrators_[i]->time();
   const std::string what = finite ? fmt::format("moves at {:.4g} m/s, above limits.max_speed = {:.4g} m/s (an energy "
                                                 "blow-up)",
                                                 worst_speed, scene_.limits.max_speed)
@@ -265,33 +240,34 @@ void Simulation::check_state(std::size_t i) const {
       steps_, t, last_dt_, bodies_[i].name, worst, corner / 4, what));
 }
 
-template <class Status>
-void Simulation::record(const Status& status) {
-  last_dt_ = status.dt;
-  times_.step += status.times;
-  self_collisions_ += status.self_collisions;
-  volume_total_ += status.volume;
-  volume_frame_ += status.volume;
-  if constexpr (requires { status.damping; }) {
-    damping_total_ += status.damping;
-    damping_frame_ += status.damping;
+void Simulation::record(const StepReport& report) {
+  last_dt_ = report.dt;
+  times_.step += report.times;
+  self_collisions_ += report.self_collisions;
+  volume_total_ += report.volume;
+  volume_frame_ += report.volume;
+  damping_total_ += report.damping;
+  damping_frame_ += report.damping;
+  steps_ += report.steps;
+}
+
+template <class Call>
+auto Simulation::guarded(std::size_t i, Call&& call) {
+  try {
+    return call();
+  } catch (const Error& e) {
+    // A solve that found no answer even at its smallest step: not bad input.
+    const std::string_view advice = integrators_[i]->failure_advice();
+    if (advice.empty()) throw;
+    throw NumericalFailure(fmt::format("numerical failure at step {} (t = {:.6g} s): body '{}': {}; try {}", steps_ + 1,
+                                       integrators_[i]->time(), bodies_[i].name, e.what(), advice));
   }
-  ++steps_;
 }
 
 void Simulation::step_body(std::size_t i, double max_dt) {
   SimulationBody& b = bodies_[i];
-  Stepper& s = *steppers_[i];
   auto start = Clock::now();
-  if (s.newmark) {
-    record(s.newmark->step(b.body, max_dt));
-  } else {
-    try {
-      record(s.backward_euler->step(b.body, max_dt));
-    } catch (const Error& e) {  // Newton failed even at the smallest Δt: not bad input
-      throw newton_failure(steps_ + 1, s.backward_euler->time(), b.name, e, scene_.integrator);
-    }
-  }
+  record(guarded(i, [&] { return integrators_[i]->step(b.body, max_dt); }));
   times_.integrate += seconds_since(start);
 
   start = Clock::now();
@@ -306,43 +282,20 @@ void Simulation::step_together(double max_dt) {
   // One Δt for all: the smallest any body needs (Newmark's CFL and strain
   // bounds; backward Euler's fixed step, the same for every body).
   double dt = max_dt;
-  for (std::size_t i = 0; i < count; ++i) {
-    Stepper& s = *steppers_[i];
-    dt = std::min(dt, s.newmark ? s.newmark->next_time_step(bodies_[i].body, max_dt)
-                                : std::min(scene_.backward_euler.time_step, max_dt));
-  }
-  const double t0 = steppers_[0]->time();
+  for (std::size_t i = 0; i < count; ++i) dt = std::min(dt, integrators_[i]->next_time_step(bodies_[i].body, max_dt));
+  const double t0 = integrators_[0]->time();
   std::vector<Points> x_start(count);
   for (std::size_t i = 0; i < count; ++i) {
-    SimulationBody& b = bodies_[i];
-    Stepper& s = *steppers_[i];
-    x_start[i] = b.body.positions;
-    if (s.newmark) {
-      s.newmark->begin_step(b.body, dt);
-      continue;
-    }
-    // Backward Euler halves a step Newton cannot converge; the body then
-    // takes several to the common time (the joint stage sees their sum).
-    double t = s.backward_euler->time();
-    try {
-      step_until(t, t0 + dt, [&](double left) {
-        const NewtonStatus status = s.backward_euler->step(b.body, left);
-        t = s.backward_euler->time();
-        record(status);
-      });
-    } catch (const Error& e) {
-      throw newton_failure(steps_ + 1, s.backward_euler->time(), b.name, e, scene_.integrator);
-    }
-    s.backward_euler->set_time(t0 + dt);
+    x_start[i] = bodies_[i].body.positions;
+    guarded(i, [&] { integrators_[i]->begin_step(bodies_[i].body, dt); });
   }
   const auto joint = Clock::now();
   collide_bodies(x_start, dt);
   times_.step.self_collisions += seconds_since(joint);
-  for (std::size_t i = 0; i < count; ++i)
-    if (Stepper& s = *steppers_[i]; s.newmark) {
-      record(s.newmark->finish_step(bodies_[i].body));
-      s.newmark->set_time(t0 + dt);  // every clock alike, to the bit
-    }
+  for (std::size_t i = 0; i < count; ++i) {
+    record(integrators_[i]->finish_step(bodies_[i].body));
+    integrators_[i]->set_time(t0 + dt);  // every clock alike, to the bit
+  }
   last_dt_ = dt;
   times_.integrate += seconds_since(start);
   const auto checks = Clock::now();
@@ -424,9 +377,7 @@ void Simulation::collide_bodies(const std::vector<Points>& x_start, double dt) {
   // scaled down for a shorter step (SelfCollisionParameters::target_scale).
   double reference = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < count; ++i)
-    reference = std::min(reference, steppers_[i]->newmark ? steppers_[i]->newmark->reference_step()
-                                    : scene_.integrator == IntegratorKind::statics ? dt  // a static step is its own
-                                                                                   : scene_.backward_euler.time_step);
+    reference = std::min(reference, integrators_[i]->reference_step());
   if (reference > 0.0 && std::isfinite(reference)) parameters.target_scale = std::min(1.0, dt / reference);
   const Points before = d;
   self_collisions_ += joint_collisions_.resolve(joint_, x0, d, fixed, parameters);
@@ -443,7 +394,6 @@ void Simulation::collide_bodies(const std::vector<Points>& x_start, double dt) {
 
 void Simulation::remesh_if_due(std::size_t i) {
   SimulationBody& b = bodies_[i];
-  Stepper& s = *steppers_[i];
   if (!b.lattice || !scene_.remesh.enabled) return;
   auto start = Clock::now();
   const bool due = remesh_due(b.body, b.body.positions, b.body.embedding.bary, scene_.remesh.thresholds);
@@ -475,7 +425,7 @@ void Simulation::remesh_if_due(std::size_t i) {
     return;
   }
   RemeshReport report;
-  const double t = s.time();
+  const double t = integrators_[i]->time();
   // Bodies that collide: the upkeep's collapses must not pass through them.
   const TriangleMesh others = together_ ? surfaces_except(i) : TriangleMesh{};
   std::optional<MeshedBody> attempt;
@@ -506,32 +456,32 @@ void Simulation::remesh_if_due(std::size_t i) {
 
 bool Simulation::advance_to(double t_end, const std::function<bool()>& stop) {
   if (together_) {
-    double t = steppers_[0]->time();
+    double t = integrators_[0]->time();
     bool stopped = false;
     step_until(
         t, t_end,
         [&](double max_dt) {
           step_together(max_dt);
-          t = steppers_[0]->time();
+          t = integrators_[0]->time();
         },
         [&] { return stopped = stop && stop(); });
     if (stopped) return false;
-    for (auto& s : steppers_) s->set_time(t_end);
+    for (auto& integrator : integrators_) integrator->set_time(t_end);
     time_ = t_end;
     return true;
   }
   for (std::size_t i = 0; i < bodies_.size(); ++i) {
-    double t = steppers_[i]->time();
+    double t = integrators_[i]->time();
     bool stopped = false;
     step_until(
         t, t_end,
         [&](double max_dt) {
           step_body(i, max_dt);
-          t = steppers_[i]->time();  // a re-mesh replaces the integrator, not its clock
+          t = integrators_[i]->time();  // a re-mesh replaces the integrator, not its clock
         },
         [&] { return stopped = stop && stop(); });
     if (stopped) return false;  // the state stays between steps
-    steppers_[i]->set_time(t_end);  // exactly, as step_until landed t
+    integrators_[i]->set_time(t_end);  // exactly, as step_until landed t
   }
   time_ = t_end;
   return true;
@@ -594,74 +544,38 @@ StateRecord Simulation::save() const {
 }
 
 void Simulation::save(StateSink& r) const {
-  r.put("time", time_);
-  r.put("steps", steps_);
-  r.put("remeshes", remeshes_);
-  r.put("last_time_step", last_dt_);
-  r.put("bodies/count", static_cast<std::int64_t>(bodies_.size()));
+  checkpoint::put_clock(r, checkpoint::Clock{time_, steps_, remeshes_, last_dt_});
+  checkpoint::put_body_count(r, bodies_.size());
   for (std::size_t i = 0; i < bodies_.size(); ++i) {
     const SimulationBody& b = bodies_[i];
-    const Body& body = b.body;
-    const std::string p = fmt::format("bodies/{}/", i);
-    r.put_string(p + "name", b.name);
-    r.put(p + "lattice", static_cast<std::int64_t>(b.lattice));
-    r.put(p + "lattice_spacing", b.h);
-    r.put_matrix(p + "rest_positions", body.rest_positions);
-    r.put_matrix(p + "positions", body.positions);
-    r.put_matrix(p + "velocities", body.velocities);
-    r.put_vector(p + "masses", body.masses);
-    r.put(p + "tets", body.tets);
-    r.put(p + "Dm_inv", body.Dm_inv);
-    r.put_vector(p + "rest_volumes", body.rest_volumes);
-    r.put(p + "Fp", body.Fp);
-    r.put_vector(p + "alpha", body.alpha);
-    r.put_vector(p + "rest_condition", body.rest_condition);
-    if (body.solid_fractions.size() > 0) r.put_vector(p + "solid_fractions", body.solid_fractions);
-    r.put(p + "surface_triangles", body.surface_triangles);
-    r.put(p + "embedding_parent", body.embedding.parent);
-    r.put_matrix(p + "embedding_bary", body.embedding.bary);
-    r.put(p + "pinned", b.pinned);
-    r.put(p + "rest_material_volume", body.rest_material_volume);
+    checkpoint::put_body(r, i, b.name, b.lattice, b.h, b.body, b.pinned);
   }
 }
 
 void Simulation::load(const StateRecord& r) {
-  const auto count = r.integer("bodies/count");
+  const auto count = checkpoint::get_body_count(r);
   if (count != static_cast<std::int64_t>(bodies_.size()))
     throw Error(fmt::format("the state holds {} bodies, the scene {}", count, bodies_.size()));
-  time_ = r.real("time");
-  steps_ = r.integer("steps");
-  remeshes_ = r.integer("remeshes");
-  last_dt_ = r.real("last_time_step");
+  const checkpoint::Clock clock = checkpoint::get_clock(r);
+  time_ = clock.time;
+  steps_ = clock.steps;
+  remeshes_ = clock.remeshes;
+  last_dt_ = clock.last_time_step;
   if (!(std::isfinite(time_) && time_ >= 0.0)) throw Error(fmt::format("time: {} is not a time a run reaches", time_));
   if (steps_ < 0 || remeshes_ < 0) throw Error(fmt::format("steps ({}) and remeshes ({}) cannot be negative", steps_, remeshes_));
   if (!(std::isfinite(last_dt_) && last_dt_ >= 0.0))
     throw Error(fmt::format("last_time_step: {} is not a time step", last_dt_));
   for (std::size_t i = 0; i < bodies_.size(); ++i) {
     SimulationBody& b = bodies_[i];
-    const std::string p = fmt::format("bodies/{}/", i);
-    if (r.string(p + "name") != b.name)
-      throw Error(fmt::format("state body {} is '{}', the scene's is '{}'", i, r.string(p + "name"), b.name));
-    b.lattice = r.integer(p + "lattice") != 0;
-    b.h = r.real(p + "lattice_spacing");
-    Body body;
+    const std::string p = checkpoint::body_prefix(i);
+    checkpoint::StoredBody stored = checkpoint::get_body(r, i);
+    if (stored.name != b.name)
+      throw Error(fmt::format("state body {} is '{}', the scene's is '{}'", i, stored.name, b.name));
+    b.lattice = stored.lattice;
+    b.h = stored.lattice_spacing;
+    b.pinned = std::move(stored.pinned);
+    Body body = std::move(stored.body);
     body.material = b.body.material;
-    body.rest_positions = r.points(p + "rest_positions");
-    body.positions = r.points(p + "positions");
-    body.velocities = r.points(p + "velocities");
-    body.masses = r.vector(p + "masses");
-    body.tets = r.tets(p + "tets");
-    body.Dm_inv = r.matrices3(p + "Dm_inv");
-    body.rest_volumes = r.vector(p + "rest_volumes");
-    body.Fp = r.matrices3(p + "Fp");
-    body.alpha = r.vector(p + "alpha");
-    body.rest_condition = r.vector(p + "rest_condition");
-    if (r.has(p + "solid_fractions")) body.solid_fractions = r.vector(p + "solid_fractions");
-    body.surface_triangles = r.triangles(p + "surface_triangles");
-    body.embedding.parent = r.indices(p + "embedding_parent");
-    body.embedding.bary = r.matrix(p + "embedding_bary", 4);
-    b.pinned = r.indices(p + "pinned");
-    body.rest_material_volume = r.real(p + "rest_material_volume");
     // A tetrahedral-mesh body's checkpoint written before make_body set this
     // holds 0; its material fills its elements, so it is Σ W, as make_body
     // sets it now (a lattice body with 0 is refused below).

@@ -15,6 +15,7 @@
 #include "core/scene.h"
 #include "core/state_record.h"
 #include "core/volume_projection.h"
+#include "solvers/integrator.h"
 #include "solvers/remesh.h"
 #include "solvers/stepping.h"
 
@@ -119,7 +120,6 @@ class Simulation {
   [[nodiscard]] double last_time_step() const { return last_dt_; }
 
  private:
-  struct Stepper;
   /// The surfaces of every body but `skipped` in one mesh (body order).
   [[nodiscard]] TriangleMesh surfaces_except(std::size_t skipped) const;
   void attach(std::size_t i, double time);  ///< (re)builds body i's constraints and integrator, its clock at `time`
@@ -136,15 +136,19 @@ class Simulation {
   void collide_bodies(const std::vector<Points>& x_start, double dt);
   void check_state(std::size_t i) const;
   void remesh_if_due(std::size_t i);
-  /// Counts one integrator step (a StepStatus or a NewtonStatus).
-  template <class Status>
-  void record(const Status& status);
+  /// Counts the integrator steps a report covers.
+  void record(const StepReport& report);
+  /// call() (an integrator's step of body i); a goo::Error it throws, a
+  /// solve that found no answer, becomes a NumericalFailure naming the body
+  /// (unless the integrator has no advice for it).
+  template <class Call>
+  auto guarded(std::size_t i, Call&& call);
   /// Body i's self-collision parameters (thickness resolved).
   [[nodiscard]] SelfCollisionParameters self_collision_parameters(std::size_t i) const;
 
   Scene scene_;  // settings, obstacles and ground (meshes of objects dropped)
   std::vector<SimulationBody> bodies_;
-  std::vector<std::unique_ptr<Stepper>> steppers_;
+  std::vector<std::unique_ptr<Integrator>> integrators_;
   bool together_ = false;  ///< bodies collide with each other: common steps, one collision stage
   SelfCollisions joint_collisions_;  // the stage over all bodies' surfaces
   Body joint_;  // every body's elements, masses and surface, concatenated (positions unused)

@@ -40,7 +40,7 @@ TEST(BackwardEuler, NewtonConvergesQuadratically) {
   settings.time_step = 5e-3;
   settings.tolerance = 1e-12;
   BackwardEulerIntegrator integrator(settings, {});
-  const NewtonStatus status = integrator.step(body, 1.0);
+  const StepReport status = integrator.step(body, 1.0);
   ASSERT_GE(status.residuals.size(), 3u);
   EXPECT_EQ(status.line_search_steps, 0);
   const auto& r = status.residuals;
@@ -181,7 +181,7 @@ TEST(BackwardEuler, AutomaticSolverLagsTheFactorOnLargeSystems) {
   BackwardEulerIntegrator integrator(settings, {});
   int factorisations = 0, iterations = 0;
   for (int i = 0; i < 3; ++i) {
-    const NewtonStatus status = integrator.step(body, 1.0);
+    const StepReport status = integrator.step(body, 1.0);
     factorisations += status.factorisations;
     iterations += status.iterations;
   }

@@ -181,7 +181,7 @@ TEST(ImplicitTension, CubeRoundsAtLargeTimeSteps) {
   double energy = cube.energy();
   double surface = EmbeddedTension::energy(cube.mb.body, cube.mb.body.positions);
   for (int step = 1; step <= 10; ++step) {
-    const NewtonStatus status = cube.integrator.step(cube.mb.body, 1.0);
+    const StepReport status = cube.integrator.step(cube.mb.body, 1.0);
     EXPECT_EQ(status.halvings, 0) << "step " << step;
     ASSERT_TRUE(cube.mb.body.positions.allFinite());
     const double now = sphericity(cube.mb.surface());

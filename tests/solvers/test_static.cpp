@@ -58,7 +58,7 @@ double stretch_error(const Material& m, double a, double b_faces, BackwardEulerS
   settings.gravity.setZero();
   settings.time_step = 1.0;
   BackwardEulerIntegrator integrator(settings, constraints);
-  const NewtonStatus status = integrator.step(body, 1.0);
+  const StepReport status = integrator.step(body, 1.0);
   if (cuts != nullptr) *cuts = status.halvings;
   EXPECT_TRUE(body.velocities.isZero(0.0));  // a static solve leaves the body at rest
   const double b = lateral_stretch(m, a);
