@@ -74,10 +74,10 @@ struct Scene {
   std::string source;       ///< the file it came from ("<built-in demo>" for the default)
   std::string text;         ///< the scene's JSON text, as read (stored in checkpoints)
   std::string base_folder;  ///< where relative paths in the scene resolve
-  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
+  Eigen::Vector3d gravity = standard_gravity();  ///< m/s², on every body (the integrators' only source of it)
   IntegratorKind integrator = IntegratorKind::newmark;
-  NewmarkSettings newmark;               ///< gravity is overwritten by Scene::gravity
-  BackwardEulerSettings backward_euler;  ///< the same
+  NewmarkSettings newmark;
+  BackwardEulerSettings backward_euler;
   std::optional<HalfSpace> ground;       ///< a floor under every object
   std::vector<Obstacle> obstacles;
   std::vector<SceneObject> objects;

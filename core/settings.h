@@ -12,8 +12,11 @@ namespace goo {
 /// (core/volume_projection.h).
 inline constexpr double kVolumeTolerance = 1e-4;
 
+/// Gravity at the Earth's surface along −z, m/s²: a scene's default, and an
+/// integrator's when a test or benchmark gives none.
+inline Eigen::Vector3d standard_gravity() { return {0.0, 0.0, -9.81}; }
+
 struct NewmarkSettings {
-  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  ///< m/s²
   double cfl = 0.5;                                            ///< fraction of the elastic stability limit
   double max_strain_per_step = 0.1;                            ///< bound on ‖Ḟ‖ Δt
   double max_time_step = 1e-2;                                 ///< s
@@ -47,7 +50,6 @@ enum class LinearSolver {
 inline constexpr long kLaggedPcgUnknowns = 10000;
 
 struct BackwardEulerSettings {
-  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  ///< m/s²
   double time_step = 1e-2;                                     ///< s, the step it tries first
   double tolerance = 1e-8;    ///< ‖∇E‖∞ over free nodes, relative to the scene's force scale
   int max_newton_iterations = 30;

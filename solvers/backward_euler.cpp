@@ -17,8 +17,9 @@
 
 namespace goo {
 
-BackwardEulerIntegrator::BackwardEulerIntegrator(BackwardEulerSettings settings, Constraints constraints)
-    : settings_(std::move(settings)), constraints_(std::move(constraints)) {
+BackwardEulerIntegrator::BackwardEulerIntegrator(BackwardEulerSettings settings, Constraints constraints,
+                                                 const Eigen::Vector3d& gravity)
+    : settings_(std::move(settings)), gravity_(gravity), constraints_(std::move(constraints)) {
   if (!(settings_.volume_tolerance > 0.0 && settings_.volume_tolerance < 0.1)) {
     throw Error(
         fmt::format("backward_euler.volume_tolerance must be in (0, 0.1), got {}", settings_.volume_tolerance));
@@ -78,14 +79,14 @@ struct BackwardEulerIntegrator::Potential {
       : body(body_), elastic(integrator.elastic_), tension(integrator.tension_), fixed(integrator.fixed_), dt(dt_),
         xn(body_.positions), statics(integrator.settings_.statics),
         viscous(!statics && body_.material.viscosity > 0.0), with_tension(EmbeddedTension::active(body_)),
-        load(gravity_factor * integrator.settings_.gravity) {
+        load(gravity_factor * integrator.gravity_) {
     const Index nn = body.num_nodes(), ne = body.num_elements();
     const Eigen::VectorXd& m = body.masses;
     gradient.resize(nn, 3);
     if (with_tension) surface_nodes = SurfaceNodes::of(body);
     if (statics) return;
     target = xn + dt * body.velocities;
-    target.rowwise() += dt * dt * integrator.settings_.gravity.transpose();
+    target.rowwise() += dt * dt * integrator.gravity_.transpose();
     if (body.material.incompressible) {
       Points pressure = Points::Zero(nn, 3);
       integrator.volume_.add_pressure_forces(body, xn, pressure);
@@ -288,7 +289,7 @@ bool BackwardEulerIntegrator::newton(Body& body, Potential& potential, Points& x
                                      StepReport& status) {
   const Index nn = body.num_nodes();
   const Points& xn = potential.xn;
-  const double scale = potential.force_scale(x, settings_.gravity.norm(), !constraints_.prescribed.empty());
+  const double scale = potential.force_scale(x, gravity_.norm(), !constraints_.prescribed.empty());
   times_.forces += timer.lap();
   if (!hessian_.matches(body.tets, nn, potential.surface_nodes.nodes))
     hessian_.build(body.tets, nn, potential.surface_nodes.nodes);

@@ -31,7 +31,9 @@ namespace goo {
 
 class BackwardEulerIntegrator final : public Integrator {
  public:
-  BackwardEulerIntegrator(BackwardEulerSettings settings, Constraints constraints);
+  /// `gravity` in m/s² (a scene's Scene::gravity).
+  BackwardEulerIntegrator(BackwardEulerSettings settings, Constraints constraints,
+                          const Eigen::Vector3d& gravity = standard_gravity());
   ~BackwardEulerIntegrator();
 
   /// One step of at most min(settings.time_step, max_dt). goo::Error if it
@@ -78,6 +80,7 @@ class BackwardEulerIntegrator final : public Integrator {
                         const Eigen::VectorXd& rhs, Eigen::VectorXd& dx, StepReport& status, StageTimer& timer);
 
   BackwardEulerSettings settings_;
+  Eigen::Vector3d gravity_;
   Constraints constraints_;
   ElasticForces elastic_;
   SparseHessian hessian_;

@@ -21,8 +21,8 @@ double dot(const Points& a, const Points& b) {
 
 }  // namespace
 
-NewmarkIntegrator::NewmarkIntegrator(NewmarkSettings settings, Constraints constraints)
-    : settings_(std::move(settings)), constraints_(std::move(constraints)) {
+NewmarkIntegrator::NewmarkIntegrator(NewmarkSettings settings, Constraints constraints, const Eigen::Vector3d& gravity)
+    : settings_(std::move(settings)), gravity_(gravity), constraints_(std::move(constraints)) {
   if (!(settings_.volume_tolerance > 0.0 && settings_.volume_tolerance < 0.1)) {
     throw Error(fmt::format("newmark.volume_tolerance must be in (0, 0.1), got {}", settings_.volume_tolerance));
   }
@@ -82,7 +82,7 @@ void NewmarkIntegrator::apply_gravity_and_forces(const Body& body, const Points&
   rhs.resize(body.num_nodes(), 3);
   for (Index n = 0; n < body.num_nodes(); ++n) {
     const double m = body.masses[n];
-    rhs.row(n) = m * v.row(n) + half_dt * (forces_.row(n) + m * settings_.gravity.transpose());
+    rhs.row(n) = m * v.row(n) + half_dt * (forces_.row(n) + m * gravity_.transpose());
   }
 }
 

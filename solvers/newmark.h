@@ -19,7 +19,9 @@ namespace goo {
 
 class NewmarkIntegrator final : public Integrator {
  public:
-  NewmarkIntegrator(NewmarkSettings settings, Constraints constraints);
+  /// `gravity` in m/s² (a scene's Scene::gravity).
+  NewmarkIntegrator(NewmarkSettings settings, Constraints constraints,
+                    const Eigen::Vector3d& gravity = standard_gravity());
 
   /// One step of at most `max_dt`, chosen as the minimum of the CFL bound,
   /// the strain-rate bound and max_time_step: next_time_step, begin_step
@@ -70,6 +72,7 @@ class NewmarkIntegrator final : public Integrator {
   void impose_velocities(const Body& body, double t_next, double dt, Points& v) const;
 
   NewmarkSettings settings_;
+  Eigen::Vector3d gravity_;
   Constraints constraints_;
   ElasticForces elastic_;
   Damping damping_;

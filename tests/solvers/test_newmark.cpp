@@ -24,11 +24,7 @@ Body make_cube(ElasticModel model = ElasticModel::fixed_corotated, int cells = 3
   return make_body(make_box_tets(Eigen::Vector3d::Constant(0.3), Eigen::Vector3i::Constant(cells)), m);
 }
 
-NewmarkSettings no_gravity() {
-  NewmarkSettings s;
-  s.gravity.setZero();
-  return s;
-}
+const Eigen::Vector3d kNoGravity = Eigen::Vector3d::Zero();
 
 /// A spinning, translating, deforming initial velocity field.
 void kick(Body& body, unsigned seed) {
@@ -49,7 +45,7 @@ TEST(Newmark, FreeBodyConservesLinearAndAngularMomentumToRoundOff) {
   Body body = make_cube();
   kick(body, 1);
   const Eigen::Vector3d p0 = linear_momentum(body), L0 = angular_momentum(body);
-  NewmarkIntegrator integrator(no_gravity(), {});
+  NewmarkIntegrator integrator({}, {}, kNoGravity);
   for (int i = 0; i < 500; ++i) integrator.step(body, 1.0);
   // Kick–drift–kick with internal forces that sum to zero and exert no
   // torque conserves both exactly; what remains is round-off of the sums.
@@ -64,9 +60,9 @@ TEST(Newmark, DampedFreeBodyConservesMomentumToRoundOffWhateverTheSolverToleranc
     for (Index n = 0; n < body.num_nodes(); ++n) body.positions(n, 2) *= 1.3;
     kick(body, 3);
     const Eigen::Vector3d p0 = linear_momentum(body), L0 = angular_momentum(body);
-    NewmarkSettings settings = no_gravity();
+    NewmarkSettings settings;
     settings.cg_tolerance = tolerance;
-    NewmarkIntegrator integrator(settings, {});
+    NewmarkIntegrator integrator(settings, {}, kNoGravity);
     integrator.advance_to(body, 0.5);
     // Damping forces are torque-free and vanish for rigid motion, and each
     // solve removes its residual's net force and torque by a rigid velocity:
@@ -87,9 +83,9 @@ TEST(Newmark, DampingSolveMeetsItsToleranceAndATighterOneChangesLittle) {
     Body body = make_cube(ElasticModel::neo_hookean, 3, 20.0);
     for (Index n = 0; n < body.num_nodes(); ++n) body.positions(n, 2) *= 1.3;
     kick(body, 3);
-    NewmarkSettings settings = no_gravity();
+    NewmarkSettings settings;
     settings.cg_tolerance = tolerance;
-    NewmarkIntegrator integrator(settings, {});
+    NewmarkIntegrator integrator(settings, {}, kNoGravity);
     for (int i = 0; i < 40; ++i) {
       const Points before = body.velocities;
       *stats += integrator.step(body, 1.0).damping;
@@ -121,9 +117,9 @@ EnergyError undamped_energy_error(double cfl) {
   for (Index n = 0; n < body.num_nodes(); ++n) body.positions(n, 0) *= 1.2;  // stretched, released
   EnergyError out;
   out.e0 = total_energy(body);
-  NewmarkSettings settings = no_gravity();
+  NewmarkSettings settings;
   settings.cfl = cfl;
-  NewmarkIntegrator integrator(settings, {});
+  NewmarkIntegrator integrator(settings, {}, kNoGravity);
   for (int i = 0; i < 10000; ++i) {
     integrator.step(body, 1.0);
     const double error = std::abs(total_energy(body) - out.e0);
@@ -148,7 +144,7 @@ TEST(Newmark, UndampedEnergyErrorIsBoundedSecondOrderAndUnderOnePercent) {
 TEST(Newmark, ViscosityMakesEnergyDecayMonotonically) {
   Body body = make_cube(ElasticModel::fixed_corotated, 2, 50.0);
   for (Index n = 0; n < body.num_nodes(); ++n) body.positions(n, 2) *= 1.3;
-  NewmarkIntegrator integrator(no_gravity(), {});
+  NewmarkIntegrator integrator({}, {}, kNoGravity);
   double previous = total_energy(body);
   const double e0 = previous;
   for (int frame = 0; frame < 40; ++frame) {
@@ -165,17 +161,17 @@ TEST(Newmark, FreeFallMatchesTheAnalyticTrajectory) {
   const Eigen::Vector3d v0(0.5, 0.0, 2.0);
   body.velocities.rowwise() = v0.transpose();
   const Points x0 = body.positions;
-  NewmarkSettings settings;
-  NewmarkIntegrator integrator(settings, {});
+  const Eigen::Vector3d g = standard_gravity();
+  NewmarkIntegrator integrator({}, {}, g);
   const double T = 0.37;
   integrator.advance_to(body, T);
   EXPECT_DOUBLE_EQ(integrator.time(), T);
   // Constant acceleration is integrated exactly; the error is round-off of
   // the many steps, relative to the distance travelled.
   for (Index n = 0; n < body.num_nodes(); ++n) {
-    const Eigen::Vector3d expected = x0.row(n).transpose() + v0 * T + 0.5 * settings.gravity * T * T;
+    const Eigen::Vector3d expected = x0.row(n).transpose() + v0 * T + 0.5 * g * T * T;
     EXPECT_TRUE(test::matrices_near(body.positions.row(n).transpose(), expected, 1e-12));
-    EXPECT_TRUE(test::matrices_near(body.velocities.row(n).transpose(), v0 + settings.gravity * T, 1e-12));
+    EXPECT_TRUE(test::matrices_near(body.velocities.row(n).transpose(), v0 + g * T, 1e-12));
   }
 }
 
@@ -185,7 +181,7 @@ TEST_P(Recovery, InvertedAndFlattenedElementsReturnToTheirRestVolume) {
   for (const double squash : {-0.2, 1e-6}) {  // mirrored through a plane, or flattened onto it
     Body body = make_cube(GetParam(), 2, 20.0);
     for (Index n = 0; n < body.num_nodes(); ++n) body.positions(n, 2) *= squash;
-    NewmarkIntegrator integrator(no_gravity(), {});
+    NewmarkIntegrator integrator({}, {}, kNoGravity);
     integrator.advance_to(body, 3.0);
     ASSERT_TRUE(body.positions.allFinite());
     for (Index e = 0; e < body.num_elements(); ++e) {
@@ -217,9 +213,9 @@ TEST(Newmark, TheFloorIsNeverCrossedAndContactOnlyDissipates) {
   Constraints constraints;
   constraints.obstacles.push_back(
       Obstacle{"ground", make_half_space(Eigen::Vector3d::UnitZ(), 0.0), RigidMotion{}, 0.0});
-  const NewmarkSettings settings;
-  NewmarkIntegrator integrator(settings, constraints);
-  const double e0 = mechanical_energy(body, settings.gravity);
+  const Eigen::Vector3d g = standard_gravity();
+  NewmarkIntegrator integrator({}, constraints, g);
+  const double e0 = mechanical_energy(body, g);
   Index contacts = 0;
   while (integrator.time() < 1.0) {
     contacts += integrator.step(body, 1.0 - integrator.time()).collisions;
@@ -228,7 +224,7 @@ TEST(Newmark, TheFloorIsNeverCrossedAndContactOnlyDissipates) {
   EXPECT_GT(contacts, 0);
   // Removing inward normal velocity never adds energy; the Verlet energy
   // oscillation is O(Δt²) ≈ 1e-3 of e0 at this step size.
-  EXPECT_LT(mechanical_energy(body, settings.gravity), e0 * (1.0 + 1e-2));
+  EXPECT_LT(mechanical_energy(body, g), e0 * (1.0 + 1e-2));
   EXPECT_LT(body.positions.col(2).maxCoeff(), 0.4 + 1e-9) << "no bounce above the drop height";
 }
 
