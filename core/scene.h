@@ -78,6 +78,7 @@ struct Scene {
   IntegratorKind integrator = IntegratorKind::newmark;
   NewmarkSettings newmark;
   BackwardEulerSettings backward_euler;
+  SurfaceTensionSettings surface_tension;  ///< every body's, whatever the integrator
   std::optional<HalfSpace> ground;       ///< a floor under every object
   std::vector<Obstacle> obstacles;
   std::vector<SceneObject> objects;

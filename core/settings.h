@@ -16,6 +16,18 @@ inline constexpr double kVolumeTolerance = 1e-4;
 /// integrator's when a test or benchmark gives none.
 inline Eigen::Vector3d standard_gravity() { return {0.0, 0.0, -9.81}; }
 
+/// A scene's `surface_tension`, for every body and integrator (the tension
+/// σ itself is the material's).
+struct SurfaceTensionSettings {
+  /// The forces' form; backward Euler and the static solve minimise an
+  /// energy, so they take only area_gradient.
+  SurfaceTensionForm form = SurfaceTensionForm::area_gradient;
+  /// Umbrella smoothing of the surface per step: λ = smoothing × σ × Δt
+  /// (capped at ½), so the smoothing per unit time does not depend on Δt.
+  /// Units 1/(N/m · s); 0 turns it off.
+  double smoothing = 0.0;
+};
+
 struct NewmarkSettings {
   double cfl = 0.5;                                            ///< fraction of the elastic stability limit
   double max_strain_per_step = 0.1;                            ///< bound on ‖Ḟ‖ Δt
@@ -26,12 +38,6 @@ struct NewmarkSettings {
   /// scheme's own O(Δt²) error in it (docs/physics.md).
   double cg_tolerance = 1e-6;
   int cg_max_iterations = 1000;
-  /// Surface tension (when the material's σ > 0 and the body has a surface).
-  SurfaceTensionForm surface_tension_form = SurfaceTensionForm::area_gradient;
-  /// Umbrella smoothing of the surface per step: λ = smoothing × σ × Δt
-  /// (capped at ½), so the smoothing per unit time does not depend on Δt.
-  /// Units 1/(N/m · s); 0 turns it off.
-  double smoothing = 0.0;
   /// Incompressible materials: |V_i − V̄_i| ≤ this × V̄_i after each step.
   double volume_tolerance = kVolumeTolerance;
 };
@@ -61,10 +67,6 @@ struct BackwardEulerSettings {
   int max_halvings = 8;  ///< a step that does not converge is retried at half Δt
   LinearSolver linear_solver = LinearSolver::automatic;
   int pcg_max_iterations = 25;  ///< lagged_pcg: more than this and the factor is renewed
-  /// Umbrella smoothing of the surface after each step (when σ > 0), as
-  /// NewmarkSettings::smoothing. Surface tension itself is always the
-  /// area-gradient form here: it is part of the minimised energy.
-  double smoothing = 0.0;
   /// Incompressible materials: as NewmarkSettings::volume_tolerance.
   double volume_tolerance = kVolumeTolerance;
   /// Static equilibrium instead of dynamics (a scene's `{"type": "static"}`;

@@ -661,13 +661,12 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::f
     s.ground = ground;
   }
   if (auto st = root.get("surface_tension")) {
-    optional(*st, "form", s.newmark.surface_tension_form, [](const Node& v) {
+    optional(*st, "form", s.surface_tension.form, [](const Node& v) {
       return v.choice({"area_gradient", "paper"}) == "paper" ? SurfaceTensionForm::paper
                                                               : SurfaceTensionForm::area_gradient;
     });
-    optional(*st, "smoothing", s.newmark.smoothing, [](const Node& v) { return v.non_negative(); });
-    s.backward_euler.smoothing = s.newmark.smoothing;
-    if (s.integrator != IntegratorKind::newmark && s.newmark.surface_tension_form == SurfaceTensionForm::paper)
+    optional(*st, "smoothing", s.surface_tension.smoothing, [](const Node& v) { return v.non_negative(); });
+    if (s.integrator != IntegratorKind::newmark && s.surface_tension.form == SurfaceTensionForm::paper)
       st->at("form").fail(fmt::format(
           "is 'paper', which is not the gradient of an energy; the {} integrator minimises one "
           "(use area_gradient, or the newmark integrator)",

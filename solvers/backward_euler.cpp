@@ -18,8 +18,12 @@
 namespace goo {
 
 BackwardEulerIntegrator::BackwardEulerIntegrator(BackwardEulerSettings settings, Constraints constraints,
-                                                 const Eigen::Vector3d& gravity)
-    : settings_(std::move(settings)), gravity_(gravity), constraints_(std::move(constraints)) {
+                                                 const Eigen::Vector3d& gravity, SurfaceTensionSettings tension)
+    : settings_(std::move(settings)), gravity_(gravity), tension_settings_(tension),
+      constraints_(std::move(constraints)) {
+  if (tension_settings_.form != SurfaceTensionForm::area_gradient)
+    throw Error("surface_tension.form: backward Euler minimises an energy, and only the area_gradient form is the "
+                "gradient of one");
   if (!(settings_.volume_tolerance > 0.0 && settings_.volume_tolerance < 0.1)) {
     throw Error(
         fmt::format("backward_euler.volume_tolerance must be in (0, 0.1), got {}", settings_.volume_tolerance));
@@ -369,8 +373,8 @@ StepReport BackwardEulerIntegrator::step(Body& body, double max_dt) {
   times_.volume += timer.lap();
   // Smoothing (W&T sec. 7, as Newmark's), plastic flow after convergence,
   // then the surface collisions.
-  if (settings_.smoothing > 0.0 && EmbeddedTension::active(body))
-    tension_.smooth(body, std::min(0.5, settings_.smoothing * body.material.surface_tension * dt));
+  if (tension_settings_.smoothing > 0.0 && EmbeddedTension::active(body))
+    tension_.smooth(body, std::min(0.5, tension_settings_.smoothing * body.material.surface_tension * dt));
   times_.surface += timer.lap();
   Points f;
   elastic_.evaluate(body, body.positions, dt, f);

@@ -31,9 +31,11 @@ namespace goo {
 
 class BackwardEulerIntegrator final : public Integrator {
  public:
-  /// `gravity` in m/s² (a scene's Scene::gravity).
+  /// `gravity` in m/s² and `tension` from the scene (Scene::gravity,
+  /// Scene::surface_tension; goo::Error for the paper form, which is not
+  /// the gradient of an energy).
   BackwardEulerIntegrator(BackwardEulerSettings settings, Constraints constraints,
-                          const Eigen::Vector3d& gravity = standard_gravity());
+                          const Eigen::Vector3d& gravity = standard_gravity(), SurfaceTensionSettings tension = {});
   ~BackwardEulerIntegrator();
 
   /// One step of at most min(settings.time_step, max_dt). goo::Error if it
@@ -81,6 +83,7 @@ class BackwardEulerIntegrator final : public Integrator {
 
   BackwardEulerSettings settings_;
   Eigen::Vector3d gravity_;
+  SurfaceTensionSettings tension_settings_;
   Constraints constraints_;
   ElasticForces elastic_;
   SparseHessian hessian_;

@@ -21,8 +21,10 @@ double dot(const Points& a, const Points& b) {
 
 }  // namespace
 
-NewmarkIntegrator::NewmarkIntegrator(NewmarkSettings settings, Constraints constraints, const Eigen::Vector3d& gravity)
-    : settings_(std::move(settings)), gravity_(gravity), constraints_(std::move(constraints)) {
+NewmarkIntegrator::NewmarkIntegrator(NewmarkSettings settings, Constraints constraints, const Eigen::Vector3d& gravity,
+                                     SurfaceTensionSettings tension)
+    : settings_(std::move(settings)), gravity_(gravity), tension_settings_(tension),
+      constraints_(std::move(constraints)) {
   if (!(settings_.volume_tolerance > 0.0 && settings_.volume_tolerance < 0.1)) {
     throw Error(fmt::format("newmark.volume_tolerance must be in (0, 0.1), got {}", settings_.volume_tolerance));
   }
@@ -59,7 +61,7 @@ void NewmarkIntegrator::evaluate_forces(Body& body, double plastic_dt) {
   if (!has_tension(body)) return;
   // W&T sec. 7: forces on the fine surface, to the nodes with b_i (a
   // quantity: algorithms.md, "Embedding"). In vertex order: deterministic.
-  tension_.add_forces(body, body.positions, settings_.surface_tension_form, forces_);
+  tension_.add_forces(body, body.positions, tension_settings_.form, forces_);
   times_.surface += timer.lap();
 }
 
@@ -309,8 +311,8 @@ void NewmarkIntegrator::begin_step(Body& body, double dt) {
   // its volume (Irving et al. 2007), before the contacts have their say.
   if (incompressible) status.volume = volume_.project(body, x_start, constrained_, dt, h);
   times_.volume += timer.lap();
-  if (has_tension(body) && settings_.smoothing > 0.0)
-    tension_.smooth(body, std::min(0.5, settings_.smoothing * body.material.surface_tension * dt));
+  if (has_tension(body) && tension_settings_.smoothing > 0.0)
+    tension_.smooth(body, std::min(0.5, tension_settings_.smoothing * body.material.surface_tension * dt));
   times_.surface += timer.lap();
   if (incompressible) {  // the volume the contacts take given back at once
     double restoring = 0.0;

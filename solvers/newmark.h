@@ -19,9 +19,9 @@ namespace goo {
 
 class NewmarkIntegrator final : public Integrator {
  public:
-  /// `gravity` in m/s² (a scene's Scene::gravity).
+  /// `gravity` in m/s² and `tension` from the scene (Scene::gravity, Scene::surface_tension).
   NewmarkIntegrator(NewmarkSettings settings, Constraints constraints,
-                    const Eigen::Vector3d& gravity = standard_gravity());
+                    const Eigen::Vector3d& gravity = standard_gravity(), SurfaceTensionSettings tension = {});
 
   /// One step of at most `max_dt`, chosen as the minimum of the CFL bound,
   /// the strain-rate bound and max_time_step: next_time_step, begin_step
@@ -73,6 +73,7 @@ class NewmarkIntegrator final : public Integrator {
 
   NewmarkSettings settings_;
   Eigen::Vector3d gravity_;
+  SurfaceTensionSettings tension_settings_;
   Constraints constraints_;
   ElasticForces elastic_;
   Damping damping_;

@@ -190,10 +190,12 @@ void Simulation::attach(std::size_t i, double time) {
   if (bodies_[i].self_collisions.enabled && !together_) constraints.self_collisions = self_collision_parameters(i);
   std::unique_ptr<Integrator> integrator;
   if (scene_.integrator == IntegratorKind::newmark) {
-    integrator = std::make_unique<NewmarkIntegrator>(scene_.newmark, std::move(constraints), scene_.gravity);
+    integrator = std::make_unique<NewmarkIntegrator>(scene_.newmark, std::move(constraints), scene_.gravity,
+                                                     scene_.surface_tension);
   } else {
     // scene_.backward_euler.statics is set for the static integrator.
-    integrator = std::make_unique<BackwardEulerIntegrator>(scene_.backward_euler, std::move(constraints), scene_.gravity);
+    integrator = std::make_unique<BackwardEulerIntegrator>(scene_.backward_euler, std::move(constraints), scene_.gravity,
+                                                           scene_.surface_tension);
   }
   integrator->set_time(time);
   integrators_[i] = std::move(integrator);

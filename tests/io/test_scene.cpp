@@ -138,8 +138,7 @@ TEST(Scene, IntegratorAndItsSettingsAreChosenPerScene) {
       R"({"primitive": {"type": "box", "size": [1, 1, 1]}, "material": {"surface_tension": 0.07}, "lattice_spacing": 0.5})",
       R"("integrator": {"type": "backward_euler"}, "surface_tension": {"smoothing": 0.5},)"));
   EXPECT_EQ(t.objects[0].material.surface_tension, 0.07);
-  EXPECT_EQ(t.backward_euler.smoothing, 0.5);
-  EXPECT_EQ(t.newmark.smoothing, 0.5);
+  EXPECT_EQ(t.surface_tension.smoothing, 0.5);
 }
 
 // The static integrator: backward Euler's settings with statics on, one

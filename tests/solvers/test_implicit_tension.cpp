@@ -149,11 +149,11 @@ struct TenseCube {
   BackwardEulerIntegrator integrator;
   TenseCube(double dt, double smoothing = 0.0)
       : mb(mesh_body(make_box({0.2, 0.2, 0.2}, 24), test::tense_cube_material(), 0.05)),
-        integrator(settings(dt, smoothing), {}, Eigen::Vector3d::Zero()) {}
-  static BackwardEulerSettings settings(double dt, double smoothing) {
+        integrator(settings(dt), {}, Eigen::Vector3d::Zero(),
+                   SurfaceTensionSettings{SurfaceTensionForm::area_gradient, smoothing}) {}
+  static BackwardEulerSettings settings(double dt) {
     BackwardEulerSettings s;
     s.time_step = dt;
-    s.smoothing = smoothing;
     return s;
   }
   [[nodiscard]] double energy() const {

@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 
+#include "core/error.h"
 #include "core/tet_mesh.h"
 #include "solvers/backward_euler.h"
 #include "solvers/newmark.h"
@@ -95,6 +96,15 @@ TEST(Integrator, AnImplicitBeginStepThatHalvesReportsEveryStepItTook) {
   EXPECT_EQ(b->time(), a->time());
   EXPECT_EQ(body.positions, reference.positions);
   EXPECT_EQ(body.velocities, reference.velocities);
+}
+
+// The paper's tension forces (W&T eq. 6) are not the gradient of an
+// energy, which backward Euler and the static solve minimise.
+TEST(Integrator, AnImplicitIntegratorRefusesTensionForcesWithoutAnEnergy) {
+  const SurfaceTensionSettings paper{SurfaceTensionForm::paper, 0.0};
+  EXPECT_TRUE(test::throws_error_containing([&] { BackwardEulerIntegrator({}, {}, standard_gravity(), paper); },
+                                            "surface_tension.form"));
+  EXPECT_NO_THROW(NewmarkIntegrator({}, {}, standard_gravity(), paper));
 }
 
 }  // namespace

@@ -32,10 +32,7 @@ Rounded rounds_a_cube(SurfaceTensionForm form, double smoothing) {
   const Material m = test::tense_cube_material();
   const TriangleMesh cube = make_box({0.2, 0.2, 0.2}, 24);
   MeshedBody mb = mesh_body(cube, m, 0.05);
-  NewmarkSettings settings;
-  settings.surface_tension_form = form;
-  settings.smoothing = smoothing;
-  NewmarkIntegrator integrator(settings, {}, Eigen::Vector3d::Zero());
+  NewmarkIntegrator integrator({}, {}, Eigen::Vector3d::Zero(), SurfaceTensionSettings{form, smoothing});
   const double V0 = surface_integrals(mb.surface()).volume;
   double previous = sphericity(mb.surface());
   EXPECT_NEAR(previous, std::cbrt(std::numbers::pi / 6.0), 1e-12);
@@ -102,9 +99,7 @@ TEST(SurfaceTensionFlow, NothingRunsWithoutSurfaceTension) {
   m.min_mass_fraction = 0.1;
   MeshedBody mb = mesh_body(make_box({0.2, 0.2, 0.2}, 4), m, 0.05);
   const Embedding before = mb.body.embedding;
-  NewmarkSettings settings;
-  settings.smoothing = 1.0;
-  NewmarkIntegrator integrator(settings, {});
+  NewmarkIntegrator integrator({}, {}, standard_gravity(), SurfaceTensionSettings{SurfaceTensionForm::area_gradient, 1.0});
   mb.body.velocities.col(0).setLinSpaced(-1.0, 1.0);  // shear it
   integrator.advance_to(mb.body, 0.05);
   EXPECT_TRUE(mb.body.embedding.bary == before.bary);
