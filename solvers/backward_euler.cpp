@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <utility>
 
 #include "core/error.h"
@@ -58,17 +59,6 @@ double max_abs_free(const Points& g, const std::vector<std::uint8_t>& fixed) {
   return m;
 }
 
-/// out = Σ_e C_e v_e, gathered in element order.
-void apply_blocks(const Body& body, const std::vector<Matrix12>& C, const Points& v, Points& out) {
-  out.setZero(body.num_nodes(), 3);
-  for (Index e = 0; e < body.num_elements(); ++e) {
-    Eigen::Matrix<double, 12, 1> ve;
-    for (int k = 0; k < 4; ++k) ve.segment<3>(3 * k) = v.row(body.tets(e, k)).transpose();
-    const Eigen::Matrix<double, 12, 1> f = C[at(e)] * ve;
-    for (int k = 0; k < 4; ++k) out.row(body.tets(e, k)) += f.segment<3>(3 * k).transpose();
-  }
-}
-
 }  // namespace
 
 /// The incremental potential of one step and its gradient (algorithms.md,
@@ -77,19 +67,30 @@ void apply_blocks(const Body& body, const std::vector<Matrix12>& C, const Points
 /// carried pressure force joins gravity in x̂ as a load constant over the step.
 /// Static (settings.statics): the potential energy Π(y) = Ψ(y) + σA(Wy) −
 /// Σ m_n γ g·y_n alone, γ the gravity's load factor (docs/implicit.md,
-/// "Static equilibrium").
+/// "Static equilibrium"). The sum of the terms of solvers/potential_terms.h,
+/// the elastic and surface terms first (their forces are what the scale of
+/// the residual is measured against).
 struct BackwardEulerIntegrator::Potential {
   Potential(BackwardEulerIntegrator& integrator, Body& body_, double dt_, double gravity_factor = 1.0)
-      : body(body_), elastic(integrator.elastic_), tension(integrator.tension_), fixed(integrator.fixed_), dt(dt_),
-        xn(body_.positions), statics(integrator.settings_.statics),
-        viscous(!statics && body_.material.viscosity > 0.0), with_tension(EmbeddedTension::active(body_)),
-        load(gravity_factor * integrator.gravity_) {
-    const Index nn = body.num_nodes(), ne = body.num_elements();
+      : body(body_), fixed(integrator.fixed_), dt(dt_), xn(body_.positions), statics(integrator.settings_.statics),
+        with_tension(EmbeddedTension::active(body_)), elasticity(body_, integrator.elastic_),
+        tension(body_, integrator.tension_) {
+    const Index nn = body.num_nodes();
     const Eigen::VectorXd& m = body.masses;
     gradient.resize(nn, 3);
+    // Surface tension (W&T sec. 7) as the energy σ A(W x) (algorithms.md,
+    // "Surface tension"): its Hessian couples the nodes of each triangle's
+    // corners' parents, which the pattern (surface_nodes) includes.
     if (with_tension) surface_nodes = SurfaceNodes::of(body);
-    if (statics) return;
-    target = xn + dt * body.velocities;
+    terms.push_back(&elasticity);
+    if (with_tension) terms.push_back(&tension);
+    conservative = terms.size();
+    if (statics) {
+      load.emplace(body, gravity_factor * integrator.gravity_);
+      terms.push_back(&*load);
+      return;
+    }
+    Points target = xn + dt * body.velocities;
     target.rowwise() += dt * dt * integrator.gravity_.transpose();
     if (body.material.incompressible) {
       Points pressure = Points::Zero(nn, 3);
@@ -97,62 +98,43 @@ struct BackwardEulerIntegrator::Potential {
       for (Index n = 0; n < nn; ++n)
         if (m[n] > 0.0) target.row(n) += (dt * dt / m[n]) * pressure.row(n);
     }
-    // Viscosity: C_e with Fe frozen at xⁿ (damping is linear in v: one matrix a step).
-    damping.resize(viscous ? at(ne) : 0);
-    if (viscous) {
-      tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
-        for (Index e = r.begin(); e != r.end(); ++e) {
-          const Eigen::Matrix3d Fe = deformation_gradient(body, xn, e) * body.Fp[at(e)].inverse();
-          damping[at(e)] = element_damping_matrix(body.material.viscosity, ElementRest::of(body, e), Fe);
-        }
-      });
+    inertia.emplace(body, std::move(target), dt);
+    terms.push_back(&*inertia);
+    if (body.material.viscosity > 0.0) {
+      damping.emplace(body, xn, dt);
+      terms.push_back(&*damping);
     }
-    // Surface tension (W&T sec. 7) as the energy σ A(W x) (algorithms.md,
-    // "Surface tension"): its Hessian couples the nodes of each triangle's
-    // corners' parents, which the pattern (surface_nodes) includes.
   }
 
+  /// The elastic and surface forces at y.
   void forces(const Points& y, Points& out) {
-    elastic.evaluate(body, y, 0.0, out);
-    if (with_tension) tension.add_forces(body, y, SurfaceTensionForm::area_gradient, out);
+    out.setZero(body.num_nodes(), 3);
+    for (std::size_t k = 0; k < conservative; ++k) terms[k]->add_forces(y, out);
   }
 
   double energy(const Points& y) {
-    const Eigen::VectorXd& m = body.masses;
-    if (statics) {
-      double work = 0.0;
-      for (Index n = 0; n < body.num_nodes(); ++n) work += m[n] * load.dot(y.row(n).transpose());
-      return elastic_energy(body, y) + (with_tension ? EmbeddedTension::energy(body, y) : 0.0) - work;
-    }
-    double inertia = 0.0;
-    for (Index n = 0; n < body.num_nodes(); ++n) inertia += m[n] * (y.row(n) - target.row(n)).squaredNorm();
-    double dissipation = 0.0;
-    if (viscous) {
-      const Points v = (y - xn) / dt;
-      apply_blocks(body, damping, v, scratch);
-      dissipation = 0.5 * dt * (v.array() * scratch.array()).sum();
-    }
-    const double surface = with_tension ? EmbeddedTension::energy(body, y) : 0.0;
-    return 0.5 * inertia / (dt * dt) + elastic_energy(body, y) + surface + dissipation;
+    double E = 0.0;
+    for (PotentialTerm* term : terms) E += term->value(y);
+    return E;
   }
 
   /// ∇E(y) into `gradient`, zero at the fixed nodes.
   void evaluate_gradient(const Points& y) {
-    const Eigen::VectorXd& m = body.masses;
-    forces(y, f);
-    if (statics) {
-      for (Index n = 0; n < body.num_nodes(); ++n) gradient.row(n) = -f.row(n) - m[n] * load.transpose();
-    } else {
-      for (Index n = 0; n < body.num_nodes(); ++n)
-        gradient.row(n) = m[n] * (y.row(n) - target.row(n)) / (dt * dt) - f.row(n);
-    }
-    if (viscous) {
-      apply_blocks(body, damping, (y - xn) / dt, damping_force);
-      gradient += damping_force;
-    }
+    f.setZero(body.num_nodes(), 3);
+    for (PotentialTerm* term : terms) term->add_forces(y, f);
+    gradient = -f;
     for (Index n = 0; n < body.num_nodes(); ++n)
       if (fixed[at(n)]) gradient.row(n).setZero();
   }
+
+  /// The Hessian's parts at y, every term's added in order.
+  void add_hessian(const Points& y, HessianParts& parts) {
+    parts.diagonal.setZero(3 * body.num_nodes());
+    for (PotentialTerm* term : terms) term->add_hessian(y, parts);
+  }
+
+  /// x̂ (dynamics), where Newton starts.
+  [[nodiscard]] const Points& target() const { return inertia->target(); }
 
   /// The force scale residuals are measured against: gravity on the
   /// heaviest node, elastic and surface forces at xⁿ, the inertial force
@@ -162,31 +144,34 @@ struct BackwardEulerIntegrator::Potential {
   double force_scale(const Points& x, double gravity, bool driven_nodes) {
     const Eigen::VectorXd& m = body.masses;
     forces(xn, f);
-    double inertia = 0.0;  // none in a static solve
+    double inertial = 0.0;  // none in a static solve
     for (Index n = 0; n < body.num_nodes() && !statics; ++n)
-      if (!fixed[at(n)]) inertia = std::max(inertia, m[n] * body.velocities.row(n).norm() / dt);
+      if (!fixed[at(n)]) inertial = std::max(inertial, m[n] * body.velocities.row(n).norm() / dt);
     double driven = 0.0;
     if (driven_nodes) {
       forces(x, scratch);
       driven = max_abs_free(scratch, fixed);
     }
-    return std::max({m.maxCoeff() * gravity, max_abs_free(f, fixed), inertia, driven, 1e-300});
+    return std::max({m.maxCoeff() * gravity, max_abs_free(f, fixed), inertial, driven, 1e-300});
   }
 
-  Body& body;  // ElasticForces::evaluate keeps per-element state in it
-  ElasticForces& elastic;
-  EmbeddedTension& tension;
+  Body& body;
   const std::vector<std::uint8_t>& fixed;
   double dt;
-  Points xn, target;
-  bool statics, viscous, with_tension;
-  Eigen::Vector3d load;  // statics: the gravity at this load step, m/s²
-  std::vector<Matrix12> damping;
+  Points xn;
+  bool statics, with_tension;
+  ElasticityTerm elasticity;
+  TensionTerm tension;
+  std::optional<InertiaTerm> inertia;
+  std::optional<DampingTerm> damping;
+  std::optional<LoadTerm> load;
+  std::vector<PotentialTerm*> terms;  // in summation order
+  std::size_t conservative = 0;       // terms[0, conservative): the elastic and surface forces
   SurfaceNodes surface_nodes;
-  Points f, gradient, damping_force, scratch;
+  Points f, gradient, scratch;
 };
 
-bool BackwardEulerIntegrator::newton_direction(const Body& body, const Potential& potential, const Points& x,
+bool BackwardEulerIntegrator::newton_direction(const Body& body, Potential& potential, const Points& x,
                                                bool& project, const Eigen::VectorXd& rhs, Eigen::VectorXd& dx,
                                                StepReport& status, StageTimer& timer) {
   // H = M/Δt² + Σ K_e + Σ C_e/Δt + Σ_t Wₜᵀ σ∂²Aₜ Wₜ. The element and
@@ -197,12 +182,8 @@ bool BackwardEulerIntegrator::newton_direction(const Body& body, const Potential
   // always slows Newton to a linear rate, 0.77 per iteration measured on a
   // stiff cube resting on the floor: compressed elements have slightly
   // indefinite fixed-corotated Hessians.)
-  const Index nn = body.num_nodes(), ne = body.num_elements();
-  const double dt = potential.dt;
-  const IsotropicEnergy energy(body.material);
+  const Index nn = body.num_nodes();
   Eigen::VectorXd diagonal(3 * nn);
-  for (Index n = 0; n < nn; ++n)  // M/Δt²; none in a static solve
-    diagonal.segment<3>(3 * n).setConstant(potential.statics ? 0.0 : body.masses[n] / (dt * dt));
   bool solved = false;
   for (int attempt = 0; attempt < 2 && !solved; ++attempt) {
     if (attempt > 0) {
@@ -210,18 +191,10 @@ bool BackwardEulerIntegrator::newton_direction(const Body& body, const Potential
       project = true;
     }
     timer.lap();
-    blocks_.resize(at(ne));
-    tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
-      for (Index e = r.begin(); e != r.end(); ++e) {
-        blocks_[at(e)] = element_hessian(energy, ElementRest::of(body, e), element_corners(body, x, e), project);
-        if (potential.viscous) blocks_[at(e)] += potential.damping[at(e)] / dt;
-      }
-    });
+    HessianParts parts{blocks_, diagonal, surface_blocks_, project};
+    potential.add_hessian(x, parts);
     hessian_.assemble(blocks_, diagonal);
-    if (potential.with_tension) {
-      EmbeddedTension::triangle_hessians(body, x, project, surface_blocks_);
-      hessian_.add_surface(potential.surface_nodes, surface_blocks_);
-    }
+    if (potential.with_tension) hessian_.add_surface(potential.surface_nodes, surface_blocks_);
     hessian_.fix_nodes(fixed_);
     times_.hessian += timer.lap();
     const int pattern = hessian_.builds();
@@ -281,7 +254,7 @@ bool BackwardEulerIntegrator::try_step(Body& body, double dt, StepReport& status
   const double t_next = time_ + dt;
   Potential potential(*this, body, dt);
   // The first guess: x̂, the constrained nodes at their positions at t_next.
-  Points x = potential.target;
+  Points x = potential.target();
   for (const Index n : constraints_.pinned) x.row(n) = xn.row(n);
   for (const auto& motion : constraints_.prescribed)
     for (const Index n : motion.nodes)

@@ -23,6 +23,7 @@
 #include "core/volume_projection.h"
 #include "solvers/embedded_tension.h"
 #include "solvers/integrator.h"
+#include "solvers/potential_terms.h"
 #include "solvers/sparse_cholesky.h"
 #include "solvers/sparse_hessian.h"
 #include "solvers/stepping.h"
@@ -78,7 +79,7 @@ class BackwardEulerIntegrator final : public Integrator {
   /// element and triangle Hessians projected to positive semi-definite once
   /// `project` is set, which an indefinite H or a non-descent direction
   /// sets); false when there is none.
-  bool newton_direction(const Body& body, const Potential& potential, const Points& x, bool& project,
+  bool newton_direction(const Body& body, Potential& potential, const Points& x, bool& project,
                         const Eigen::VectorXd& rhs, Eigen::VectorXd& dx, StepReport& status, StageTimer& timer);
 
   BackwardEulerSettings settings_;
