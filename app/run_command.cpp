@@ -29,7 +29,6 @@
 #include "io/surface_mesh_io.h"
 #include "meshing/surface_intersections.h"
 #include "solvers/checkpoint_schema.h"
-#include "solvers/linear_algebra_threads.h"
 #include "solvers/simulation.h"
 
 namespace goo::app {
@@ -684,7 +683,6 @@ int run_scene(const RunOptions& options) {
   if (options.threads > 0)
     threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                     static_cast<std::size_t>(options.threads));
-  set_linear_algebra_threads(1);
   claim_folder(options, plan);
 
   const std::unique_ptr<Simulation> simulation =

@@ -14,7 +14,6 @@
 #include "solvers/stepping.h"
 #include "core/log.h"
 #include "core/parallel.h"
-#include "solvers/linear_algebra_threads.h"
 
 namespace goo {
 
@@ -30,13 +29,6 @@ BackwardEulerIntegrator::BackwardEulerIntegrator(BackwardEulerSettings settings,
         fmt::format("backward_euler.volume_tolerance must be in (0, 0.1), got {}", settings_.volume_tolerance));
   }
   volume_ = VolumeProjection(VolumeProjectionSettings{settings_.volume_tolerance});
-  // One BLAS thread: TBB already runs the assembly on every core, and BLAS
-  // threads spinning next to TBB's workers cost more than they bring.
-  static const bool configured = [] {
-    set_linear_algebra_threads(1);
-    return true;
-  }();
-  (void)configured;
   if (!(settings_.time_step > 0.0) || !std::isfinite(settings_.time_step))
     throw Error(fmt::format("backward_euler.time_step must be positive, got {}", settings_.time_step));
 }

@@ -2,6 +2,8 @@
 
 #include <Eigen/CholmodSupport>
 
+#include "solvers/linear_algebra_threads.h"
+
 namespace goo {
 
 struct SparseCholesky::Impl {
@@ -14,7 +16,16 @@ struct SparseCholesky::Impl {
   int factored_for = -1;  // the same, for the factor held (-1: none)
 };
 
-SparseCholesky::SparseCholesky() : impl_(std::make_unique<Impl>()) {}
+SparseCholesky::SparseCholesky() : impl_(std::make_unique<Impl>()) {
+  // One BLAS (and OpenMP) thread, set once per process by the one class
+  // that calls BLAS: TBB already runs the assembly on every core, and BLAS
+  // threads spinning next to TBB's workers cost more than they bring.
+  static const bool configured = [] {
+    set_linear_algebra_threads(1);
+    return true;
+  }();
+  (void)configured;
+}
 SparseCholesky::~SparseCholesky() = default;
 
 bool SparseCholesky::analysed_for(int pattern) const { return impl_->analysed_for == pattern; }
