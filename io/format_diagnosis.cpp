@@ -1,12 +1,17 @@
-// The structure of a mesh file, checked before a library parses it. The
-// parsers (CGAL, tinyobjloader) say only that they failed, and some accept
-// broken files (CGAL reads a 40-byte or truncated ASCII STL as an empty mesh),
-// so every read first walks the file to name the first problem, with its line
-// or byte offset. It favours clarity over speed: a fraction of parsing time.
+// OFF, PLY and STL files read into a polygon soup by one walk that checks
+// their structure as it goes and names the first problem with its line or
+// byte offset (general parsers say only that they failed, and some accept
+// broken files: a 40-byte or truncated ASCII STL read as an empty mesh).
+// Numbers are read as their declared type, correctly rounded (from_chars);
+// an STL's corners are merged where their coordinates are equal, numbered
+// in order of first appearance. A test holds the soups to CGAL's readers.
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
+#include <map>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
@@ -33,7 +38,7 @@ std::string shown(std::string_view token) {
 }
 
 // ---------------------------------------------------------------- OFF
-std::string diagnose_off(std::string_view text) {
+std::string diagnose_off(std::string_view text, PolygonSoup& soup) {
   Tokens tokens(text, true);
   const auto header = tokens.next();
   const std::string_view h = header.text;
@@ -53,17 +58,21 @@ std::string diagnose_off(std::string_view text) {
     count = *value;
   }
   const long long nv = counts[0], nf = counts[1];
+  soup.points.reserve(static_cast<std::size_t>(std::min(nv, 1LL << 24)));
   for (long long v = 0; v < nv; ++v) {
     const auto line = tokens.line();
     if (line.empty()) return fmt::format("the file ends after {} of the {} vertices it declares", v, nv);
     if (line.size() < 3) {
       return fmt::format("line {}: vertex {} has {} coordinates, expected 3", line[0].line, v, line.size());
     }
+    std::array<double, 3> point{};
     for (int k = 0; k < 3; ++k) {
       if (auto problem = coordinate_problem(line[static_cast<std::size_t>(k)].text)) {
         return fmt::format("line {}: vertex {}: {}", line[0].line, v, *problem);
       }
+      point[static_cast<std::size_t>(k)] = *to_double(line[static_cast<std::size_t>(k)].text);
     }
+    soup.points.push_back(point);
   }
   for (long long f = 0; f < nf; ++f) {
     const auto line = tokens.line();
@@ -76,6 +85,7 @@ std::string diagnose_off(std::string_view text) {
     if (static_cast<long long>(line.size()) < 1 + *n) {
       return fmt::format("line {}: face {} declares {} vertices but lists {}", line[0].line, f, *n, line.size() - 1);
     }
+    std::vector<std::size_t>& polygon = soup.polygons.emplace_back();
     for (long long k = 1; k <= *n; ++k) {
       const auto& token = line[static_cast<std::size_t>(k)];
       const auto id = to_integer(token.text);
@@ -84,6 +94,7 @@ std::string diagnose_off(std::string_view text) {
         return fmt::format("line {}: face {} references vertex {}, but the file declares {} vertices", token.line, f,
                            *id, nv);
       }
+      polygon.push_back(static_cast<std::size_t>(*id));
     }
   }
   return {};
@@ -126,7 +137,45 @@ long long read_binary_integer(const unsigned char* p, std::string_view type, boo
   return static_cast<long long>(raw);
 }
 
-std::string diagnose_ply(std::string_view text) {
+/// Reads a PLY scalar of any type from binary data, as a double.
+double read_binary_real(const unsigned char* p, std::string_view type, bool big_endian) {
+  const int size = ply_type_size(type);
+  const bool real = type == "float" || type == "float32" || type == "double" || type == "float64";
+  if (!real) return static_cast<double>(read_binary_integer(p, type, big_endian));
+  std::uint64_t raw = 0;
+  for (int i = 0; i < size; ++i) {
+    const int byte = big_endian ? i : size - 1 - i;
+    raw = (raw << 8) | p[byte];
+  }
+  if (size == 4) {
+    float value = 0.0F;
+    const auto bits = static_cast<std::uint32_t>(raw);
+    std::memcpy(&value, &bits, sizeof value);
+    return static_cast<double>(value);
+  }
+  double value = 0.0;
+  std::memcpy(&value, &raw, sizeof value);
+  return value;
+}
+
+/// An ASCII PLY scalar read as its declared type: a float correctly rounded
+/// to float, then widened (as a reader storing floats would), others as double.
+std::optional<double> ascii_real(std::string_view token, std::string_view type) {
+  if (type == "float" || type == "float32") {
+    float value = 0.0F;
+    const auto [end, error] = std::from_chars(token.data(), token.data() + token.size(), value);
+    if (error != std::errc() || end != token.data() + token.size()) return std::nullopt;
+    return static_cast<double>(value);
+  }
+  return to_double(token);
+}
+
+bool is_face_element(std::string_view name) { return name == "face" || name == "faces"; }
+bool is_face_list(const PlyProperty& p) {
+  return !p.count_type.empty() && (p.name == "vertex_indices" || p.name == "vertex_index");
+}
+
+std::string diagnose_ply(std::string_view text, PolygonSoup& soup) {
   // Header: lines up to "end_header".
   std::size_t pos = 0;
   int line_number = 0;
@@ -191,12 +240,47 @@ std::string diagnose_ply(std::string_view text) {
     if (!found) return fmt::format("the PLY 'vertex' element has no '{}' property", axis);
   }
   const long long nv = vertex->count;
+  for (const auto& e : elements) {
+    if (!is_face_element(e.name)) continue;
+    if (std::none_of(e.properties.begin(), e.properties.end(), is_face_list))
+      return fmt::format("the PLY '{}' element has no 'vertex_indices' list", e.name);
+    for (const auto& p : e.properties)
+      if (is_face_list(p) && (p.type == "float" || p.type == "float32" || p.type == "double" || p.type == "float64"))
+        return fmt::format("the PLY '{}' list '{}' holds {} values, not vertex indices", e.name, p.name, p.type);
+  }
+  // Where a value goes: a vertex's coordinate (0, 1, 2), a face's index list, or nowhere.
+  auto axis_of = [](const PlyElement& element, const PlyProperty& property) {
+    if (element.name != "vertex" || !property.count_type.empty()) return -1;
+    return property.name == "x" ? 0 : property.name == "y" ? 1 : property.name == "z" ? 2 : -1;
+  };
+  auto starts_item = [&](const PlyElement& element) {
+    if (element.name == "vertex") soup.points.push_back({0.0, 0.0, 0.0});
+  };
+  auto add_value = [&](const PlyElement& element, const PlyProperty& property, bool first_item, double value) {
+    if (const int axis = axis_of(element, property); axis >= 0) soup.points.back()[static_cast<std::size_t>(axis)] = value;
+    if (is_face_element(element.name) && is_face_list(property)) {
+      if (first_item) soup.polygons.emplace_back();
+      soup.polygons.back().push_back(static_cast<std::size_t>(value));
+    }
+  };
+  auto face_list_done = [&](const PlyElement& element, const PlyProperty& property, long long items) {
+    // An empty index list is still a polygon (then refused as one).
+    if (items == 0 && is_face_element(element.name) && is_face_list(property)) soup.polygons.emplace_back();
+  };
+  // The first index list of a face element is its polygon; later ones are ignored.
+  auto first_list = [](const PlyElement& element, const PlyProperty& property) {
+    for (const auto& p : element.properties)
+      if (is_face_list(p)) return &p == &property;
+    return false;
+  };
 
   if (format == "ascii") {
     Tokens tokens(text.substr(pos), false);
     for (const auto& element : elements) {
       for (long long i = 0; i < element.count; ++i) {
+        starts_item(element);
         for (const auto& property : element.properties) {
+          const bool polygon = first_list(element, property);
           long long items = 1;
           if (!property.count_type.empty()) {
             const auto token = tokens.next();
@@ -221,14 +305,23 @@ std::string diagnose_ply(std::string_view text) {
             } else if (!to_double(token.text)) {
               return fmt::format("line {}: {} {}: '{}' is not a number", line, element.name, i, token.text);
             }
-            if (element.name == "face" && !property.count_type.empty()) {
+            if (polygon) {
               const auto id = to_integer(token.text);
-              if (id && (*id < 0 || *id >= nv)) {
+              if (!id) return fmt::format("line {}: face {}: '{}' is not a vertex index", line, i, token.text);
+              if (*id < 0 || *id >= nv) {
                 return fmt::format("line {}: face {} references vertex {}, but the file declares {} vertices", line, i,
                                    *id, nv);
               }
+              add_value(element, property, k == 0, static_cast<double>(*id));
+            } else if (axis_of(element, property) >= 0) {
+              const auto value = ascii_real(token.text, property.type);
+              if (!value)
+                return fmt::format("line {}: vertex {}: '{}' is out of range for a {}", line, i, token.text,
+                                   property.type);
+              add_value(element, property, false, *value);
             }
           }
+          if (polygon) face_list_done(element, property, items);
         }
       }
     }
@@ -242,7 +335,9 @@ std::string diagnose_ply(std::string_view text) {
   std::size_t offset = pos;
   for (const auto& element : elements) {
     for (long long i = 0; i < element.count; ++i) {
+      starts_item(element);
       for (const auto& property : element.properties) {
+        const bool polygon = first_list(element, property);
         long long items = 1;
         if (!property.count_type.empty()) {
           const auto bytes = static_cast<std::size_t>(ply_type_size(property.count_type));
@@ -260,14 +355,18 @@ std::string diagnose_ply(std::string_view text) {
             return fmt::format("the file is truncated: it ends inside {} {} of the {} its header declares (at byte {})",
                                element.name, i, element.count, size);
           }
-          if (element.name == "face" && !property.count_type.empty()) {
+          if (polygon) {
             const long long id = read_binary_integer(data + offset, property.type, big_endian);
             if (id < 0 || id >= nv) {
               return fmt::format("face {} references vertex {}, but the file declares {} vertices", i, id, nv);
             }
+            add_value(element, property, k == 0, static_cast<double>(id));
+          } else if (axis_of(element, property) >= 0) {
+            add_value(element, property, false, read_binary_real(data + offset, property.type, big_endian));
           }
           offset += item_size;
         }
+        if (polygon) face_list_done(element, property, items);
       }
     }
   }
@@ -275,7 +374,32 @@ std::string diagnose_ply(std::string_view text) {
 }
 
 // ---------------------------------------------------------------- STL
-std::string diagnose_stl(std::string_view text) {
+/// An STL's corners merged where their coordinates are equal, numbered in
+/// order of first appearance (an STL lists each triangle's corners apart).
+class CornerMerger {
+ public:
+  explicit CornerMerger(PolygonSoup& soup) : soup_(soup) {}
+  void add_triangle(const std::array<std::array<double, 3>, 3>& corners) {
+    std::vector<std::size_t>& polygon = soup_.polygons.emplace_back();
+    for (const auto& p : corners) {
+      if (std::isnan(p[0]) || std::isnan(p[1]) || std::isnan(p[2])) {  // unordered: a point of its own (refused later)
+        polygon.push_back(soup_.points.size());
+        soup_.points.push_back(p);
+        continue;
+      }
+      const auto [it, inserted] = ids_.emplace(p, soup_.points.size());
+      if (inserted) soup_.points.push_back(p);
+      polygon.push_back(it->second);
+    }
+  }
+
+ private:
+  PolygonSoup& soup_;
+  std::map<std::array<double, 3>, std::size_t> ids_;  // ordered by <: 0 and −0 are one point
+};
+
+std::string diagnose_stl(std::string_view text, PolygonSoup& soup) {
+  CornerMerger merger(soup);
   std::size_t first = 0;
   while (first < text.size() && std::isspace(static_cast<unsigned char>(text[first])) != 0) ++first;
   const bool says_solid = text.substr(first, 5) == "solid";
@@ -296,6 +420,14 @@ std::string diagnose_stl(std::string_view text) {
     if (text.size() > expected) {
       return fmt::format("the binary STL has {} bytes after the {} triangles its header declares",
                          text.size() - expected, declared);
+    }
+    const auto* data = reinterpret_cast<const unsigned char*>(text.data());
+    for (std::uint32_t t = 0; t < declared; ++t) {
+      std::array<std::array<double, 3>, 3> corners{};
+      for (std::size_t v = 0; v < 3; ++v)
+        for (std::size_t k = 0; k < 3; ++k)  // non-finite values are refused by the surface's validation
+          corners[v][k] = read_binary_real(data + 84 + 50 * std::size_t{t} + 12 * (v + 1) + 4 * k, "float", false);
+      merger.add_triangle(corners);
     }
     return {};
   }
@@ -321,35 +453,39 @@ std::string diagnose_stl(std::string_view text) {
     }
     if (auto problem = expect("outer")) return *problem;
     if (auto problem = expect("loop")) return *problem;
-    for (int v = 0; v < 3; ++v) {
+    std::array<std::array<double, 3>, 3> corners{};
+    for (std::size_t v = 0; v < 3; ++v) {
       if (auto problem = expect("vertex")) return *problem;
-      for (int k = 0; k < 3; ++k) {
+      for (std::size_t k = 0; k < 3; ++k) {
         const auto token = tokens.next();
         if (auto problem = coordinate_problem(token.text)) {
           return fmt::format("line {}: facet {}: {}", token.line, facet, *problem);
         }
+        corners[v][k] = *to_double(token.text);
       }
     }
     if (auto problem = expect("endloop")) return *problem;
     if (auto problem = expect("endfacet")) return *problem;
+    merger.add_triangle(corners);
   }
 }
 
 }  // namespace
 
-std::string find_format_problem(const std::filesystem::path& path, MeshFormat format) {
+std::string read_polygon_soup(const std::filesystem::path& path, MeshFormat format, PolygonSoup& soup) {
   const std::string text = read_all(path);
+  soup = PolygonSoup{};
   switch (format) {
     case MeshFormat::off:
-      return diagnose_off(text);
+      return diagnose_off(text, soup);
     case MeshFormat::ply:
-      return diagnose_ply(text);
+      return diagnose_ply(text, soup);
     case MeshFormat::stl:
-      return diagnose_stl(text);
+      return diagnose_stl(text, soup);
     case MeshFormat::obj:
-      return {};  // obj_reader.cpp checks OBJ as it reads
+      break;  // read_obj
   }
-  return {};
+  return "OBJ files are read by read_obj";
 }
 
 }  // namespace goo::io::detail

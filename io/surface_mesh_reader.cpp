@@ -101,12 +101,8 @@ TriangleMesh read_surface_mesh(const std::filesystem::path& path, const ReadOpti
   if (format == MeshFormat::obj) {
     soup = detail::read_obj(path);
   } else {
-    if (const std::string problem = detail::find_format_problem(path, format); !problem.empty()) {
+    if (const std::string problem = detail::read_polygon_soup(path, format, soup); !problem.empty()) {
       throw Error(fmt::format("{}: {}", name, problem));
-    }
-    if (!detail::read_with_cgal(path, format, soup)) {
-      throw Error(fmt::format("{}: not a readable {} file (the reader stopped after {} vertices and {} faces)", name,
-                              to_string(format), soup.points.size(), soup.polygons.size()));
     }
   }
 

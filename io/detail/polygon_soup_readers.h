@@ -16,20 +16,19 @@ struct PolygonSoup {
   std::vector<std::vector<std::size_t>> polygons;  // 0-based vertex ids
 };
 
-/// CGAL's readers (OFF, PLY, STL). False on failure; `soup` then holds what
-/// was read before the failure.
-bool read_with_cgal(const std::filesystem::path& path, MeshFormat format, PolygonSoup& soup);
+/// OFF, PLY or STL into `soup`, the structure checked on the way: returns
+/// the first problem (wrong header, a token that is not a number, a
+/// non-finite coordinate, an index out of range, truncation) with its line
+/// (text) or byte count (binary), for a user to act on; empty when the file
+/// was read whole. Numbers are read as their declared type, correctly
+/// rounded; an STL's equal corners are one point, in order of first
+/// appearance.
+std::string read_polygon_soup(const std::filesystem::path& path, MeshFormat format, PolygonSoup& soup);
 
 /// OBJ: faces (polygons, groups, relative indices) by tinyobjloader;
 /// coordinates by std::from_chars, which rounds correctly where
 /// tinyobjloader's own parser can be an ulp off and reads "inf" as 0. Throws
 /// goo::Error naming the file and line of the first problem.
 PolygonSoup read_obj(const std::filesystem::path& path);
-
-/// The first structural problem of an OFF, PLY or STL file (wrong header,
-/// a token that is not a number, a non-finite coordinate, an index out of
-/// range, truncation), with its line (text) or byte count (binary), for a
-/// user to act on; empty when none is found.
-std::string find_format_problem(const std::filesystem::path& path, MeshFormat format);
 
 }  // namespace goo::io::detail
