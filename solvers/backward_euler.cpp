@@ -2,8 +2,6 @@
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -356,15 +354,14 @@ StepReport BackwardEulerIntegrator::step(Body& body, double max_dt) {
       collisions_.resolve_velocities(body, body.velocities, constraints_.obstacles, t_next, dt, fixed_).resolved;
   times_.volume += restoring;
   times_.collisions += timer.lap() - restoring;
+  last_dt_ = dt;  // reference_step() of a static step is the step itself
   if (constraints_.self_collisions) {
     SelfCollisionParameters parameters = *constraints_.self_collisions;
-    last_dt_ = dt;
     parameters.reference_step = reference_step();
     status.self_collisions = self_collisions_.resolve_step(body, x0, dt, fixed_, parameters);
   }
   times_.self_collisions += timer.lap();
   time_ = t_next;
-  last_dt_ = dt;
   status.times = times_;
   return status;
 }

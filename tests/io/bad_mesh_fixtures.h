@@ -95,6 +95,19 @@ inline std::vector<BadMesh> bad_meshes() {
        "line 1: wrong header: expected 'OFF', found 'OFX'"},
       {"header.ply", "plx\n" + ply.substr(4), "line 1: wrong header: expected 'ply', found 'plx'"},
       {"noend.ply", "ply\nformat ascii 1.0\nelement vertex 4\n", "no 'end_header'"},
+      {"noindices.ply",
+       "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+       "element face 4\nproperty list uchar int corners\nend_header\n" + kTetVertices + kTetFaces,
+       "the PLY 'face' element has no 'vertex_indices' list"},
+      {"realindices.ply",
+       "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+       "element face 4\nproperty list uchar float vertex_indices\nend_header\n" + kTetVertices + kTetFaces,
+       "list 'vertex_indices' holds float values, not vertex indices"},
+      {"floatrange.ply",
+       "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+       "element face 4\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1e39 0 0\n0 1 0\n0 0 1\n" +
+           kTetFaces,
+       "line 11: vertex 1: '1e39' is out of range for a float"},
       {"ascii.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 nan\n",
        "facet 0: the coordinate 'nan' is not finite"},
       {"mesh.xyz", "0 0 0\n", "unknown surface mesh format '.xyz'"},
