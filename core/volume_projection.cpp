@@ -188,6 +188,8 @@ void VolumeProjection::move(const Body& body, const Eigen::VectorXd& lambda) {
 
 void VolumeProjection::add_pressure_forces(const Body& body, const Points& x, Points& forces) {
   if (pressure_.size() != body.num_nodes()) return;
+  // G at x replaces the prepared one (the same where x is its positions).
+  prepared_.valid = prepared_.valid && prepared_.positions.rows() == x.rows() && prepared_.positions == x;
   gradients(body, x);
   transpose_product(body, pressure_, transposed_);
   forces -= transposed_;
@@ -212,7 +214,37 @@ void VolumeProjection::apply(const Body& body, const Eigen::VectorXd& lambda, Ei
     if (!active_[at(n)]) out[n] = 0.0;
 }
 
+bool VolumeProjection::Prepared::same(const Body& body, const Points& at_positions,
+                                      const std::vector<std::uint8_t>& fixed_nodes) const {
+  return valid && positions.rows() == at_positions.rows() && positions == at_positions &&
+         masses.size() == body.masses.size() && masses == body.masses && fractions.size() == body.solid_fractions.size() &&
+         fractions == body.solid_fractions && Fp == body.Fp && fixed == fixed_nodes && tets.rows() == body.tets.rows() &&
+         tets == body.tets;
+}
+
 void VolumeProjection::prepare(const Body& body, const Points& at_positions, const std::vector<std::uint8_t>& fixed) {
+  // Everything below is a function of these (and of the rest volumes,
+  // which change only with the mesh, and the sliding nodes, which only a
+  // restore has and which it never reuses).
+  if (sliding_ == nullptr && prepared_.same(body, at_positions, fixed)) {
+    rest_ = prepared_.rest;
+    return;
+  }
+  prepare_anew(body, at_positions, fixed);
+  prepared_.valid = sliding_ == nullptr;
+  if (prepared_.valid) {
+    prepared_.positions = at_positions;
+    prepared_.masses = body.masses;
+    prepared_.fractions = body.solid_fractions;
+    prepared_.Fp = body.Fp;
+    prepared_.fixed = fixed;
+    prepared_.tets = body.tets;
+    prepared_.rest = rest_;
+  }
+}
+
+void VolumeProjection::prepare_anew(const Body& body, const Points& at_positions,
+                                    const std::vector<std::uint8_t>& fixed) {
   const Index ne = body.num_elements(), nn = body.num_nodes();
   gradients(body, at_positions);
   inverse_mass_.resize(nn);
@@ -475,10 +507,11 @@ VolumeProjectionStats VolumeProjection::restore(Body& body, const std::vector<st
     if (error <= settings_.tolerance || iteration == kRestoreIterations) break;
     for (Index n = 0; n < nn; ++n)
       error_[n] = std::clamp(error_[n], -kMaxDrift * node_rest_[n], kMaxDrift * node_rest_[n]);
-    lambda_ = Eigen::VectorXd::Zero(nn);
+    lambda_ = iteration == 0 && restore_start_.size() == nn ? restore_start_ : Eigen::VectorXd::Zero(nn);
     stats.cg_iterations += solve(body, error_, 0.25 * settings_.tolerance, lambda_);
     stats.newton_iterations = iteration + 1;
     if (!lambda_.allFinite()) break;
+    if (iteration == 0) restore_start_ = lambda_;
     move(body, lambda_);
     body.positions -= direction_;
   }

@@ -74,6 +74,8 @@ class VolumeProjection {
   /// body's state alone (a restart point).
   void reset() {
     pressure_.resize(0);
+    restore_start_.resize(0);
+    prepared_.valid = false;
     surface_age_ = 0;
   }
 
@@ -105,7 +107,9 @@ class VolumeProjection {
   /// obstacles' position corrections take after the projection
   /// (resolve_positions_keeping_volume).
   /// Only when some node is off by more than `from` (relative, as the
-  /// tolerance); nothing moves otherwise.
+  /// tolerance); nothing moves otherwise. The first solve starts from the
+  /// last restore's first multipliers (since reset()): the contacts take
+  /// much the same volume step after step, so it starts near its answer.
   VolumeProjectionStats restore(Body& body, const std::vector<std::uint8_t>& fixed, const SlidingNodes& sliding,
                                 double from = 0.0);
   [[nodiscard]] double tolerance() const { return settings_.tolerance; }
@@ -122,6 +126,7 @@ class VolumeProjection {
   /// G at `at_positions`, the inverse masses, the elements that can move,
   /// the nodes' rest volumes, which nodes are constrained, the preconditioner.
   void prepare(const Body& body, const Points& at_positions, const std::vector<std::uint8_t>& fixed);
+  void prepare_anew(const Body& body, const Points& at_positions, const std::vector<std::uint8_t>& fixed);
   /// Preconditioned CG on A λ = rhs from λ's value; returns the iterations.
   int solve(const Body& body, const Eigen::VectorXd& rhs, double target, Eigen::VectorXd& lambda);
   /// s with which every target V̄_i is scaled so that the embedded surface
@@ -158,6 +163,20 @@ class VolumeProjection {
   std::vector<std::uint8_t> active_, movable_;
   Points direction_, transposed_;
   Eigen::VectorXd pressure_;  ///< π, the carried nodal pressures, Pa
+  Eigen::VectorXd restore_start_;  ///< the last restore's first λ
+  /// What the last prepare() was given without sliding nodes: a prepare
+  /// for the same body, positions and fixed nodes (the next step's
+  /// projection after the velocity projection) reuses its results.
+  struct Prepared {
+    bool valid = false;
+    Points positions;
+    Eigen::VectorXd masses, fractions;
+    std::vector<Eigen::Matrix3d> Fp;
+    std::vector<std::uint8_t> fixed;
+    Tets tets;
+    Eigen::VectorXd rest;  ///< rest_ as prepared (its users scale it)
+    [[nodiscard]] bool same(const Body& body, const Points& at_positions, const std::vector<std::uint8_t>& fixed) const;
+  } prepared_;
   double last_residual_ = 0.0;
   double discrepancy_ = 0.0;  ///< V_s − Σ φ_e V_e when last measured
   int surface_age_ = 0;       ///< projections since it was

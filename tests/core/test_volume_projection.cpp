@@ -191,12 +191,15 @@ TEST(VolumeProjection, SlidingNodesAreFreeAlongTheirContactsOnly) {
   }
 }
 
-TEST(VolumeProjection, RestoreGivesBackThePressedVolumeAlongThePressInThePositionsAlone) {
-  // The top layer of a box's nodes pushed 2 % of its height down (as a
-  // press's position corrections would): the nodes of the top elements are
-  // held against the press (outward normal −z). Restoring gives every node
-  // its volume back by moving the others: the held ones keep their height,
-  // velocities do not change.
+/// The top layer of a box's nodes pushed 2 % of its height down (as a
+/// press's position corrections would); the nodes of the top elements are
+/// held against the press (outward normal −z).
+struct Pressed {
+  Body body;
+  SlidingNodes sliding;
+};
+
+Pressed pressed_box() {
   Material m;
   m.incompressible = true;
   Body body = make_body(make_box_tets(Eigen::Vector3d::Constant(0.2), Eigen::Vector3i::Constant(4)), m);
@@ -210,7 +213,16 @@ TEST(VolumeProjection, RestoreGivesBackThePressedVolumeAlongThePressInThePositio
         contacts.push_back({e, {0.0, 0.0, -1.0}});
         break;
       }
-  const SlidingNodes sliding = SlidingNodes::from_contacts(body, contacts);
+  SlidingNodes sliding = SlidingNodes::from_contacts(body, contacts);
+  return {std::move(body), std::move(sliding)};
+}
+
+TEST(VolumeProjection, RestoreGivesBackThePressedVolumeAlongThePressInThePositionsAlone) {
+  // Restoring gives every node its volume back by moving the others: the
+  // held ones keep their height, velocities do not change.
+  Pressed pressed = pressed_box();
+  Body& body = pressed.body;
+  const SlidingNodes& sliding = pressed.sliding;
   const Points before = body.positions, velocities = body.velocities;
   const double error = max_nodal_volume_error(body, body.positions);
   EXPECT_GT(error, 0.02) << "the test must start far from the constraint";
@@ -232,6 +244,78 @@ TEST(VolumeProjection, RestoreGivesBackThePressedVolumeAlongThePressInThePositio
   free_body.positions = before;
   projection.restore(free_body, {}, SlidingNodes{});
   EXPECT_GT((free_body.positions.col(2) - before.col(2)).maxCoeff(), 1e-4);
+}
+
+TEST(VolumeProjection, ARestoreStartsFromTheLastOnesMultipliers) {
+  // A press takes the same volume step after step: the second restore of
+  // the same pressed state starts at the first one's answer and needs
+  // fewer iterations for the same tolerance; after reset() a restore is
+  // again a fresh one's, bit for bit.
+  const Pressed pressed = pressed_box();
+  const double tolerance = VolumeProjectionSettings{}.tolerance;
+  VolumeProjection projection;
+  Body first = pressed.body, second = pressed.body, third = pressed.body;
+  const VolumeProjectionStats s1 = projection.restore(first, {}, pressed.sliding);
+  const VolumeProjectionStats s2 = projection.restore(second, {}, pressed.sliding);
+  EXPECT_LE(max_nodal_volume_error(second, second.positions), tolerance);
+  EXPECT_LT(s2.cg_iterations, s1.cg_iterations);
+  projection.reset();
+  const VolumeProjectionStats s3 = projection.restore(third, {}, pressed.sliding);
+  EXPECT_EQ(s3.cg_iterations, s1.cg_iterations);
+  EXPECT_TRUE(third.positions == first.positions);
+}
+
+TEST(VolumeProjection, TheNextStepReusesThePreparationOnlyWhereNothingItReadChanged) {
+  // A velocity projection at a step's end, then the next step's projection
+  // from the same positions, which reuses the velocity projection's
+  // preparation (G, masses, rest volumes, the preconditioner): the same
+  // bits as a fresh projection given the same state, also where what the
+  // preparation read changed in between.
+  enum class Change { kNothing, kMass, kPlastic, kFraction, kFixed, kStart };
+  const double dt = 1e-3;
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Points unchanged;
+  for (const Change change : {Change::kNothing, Change::kMass, Change::kPlastic, Change::kFraction, Change::kFixed,
+                              Change::kStart}) {
+    Perturbed p = perturbed_box(0.0, 19);
+    Body& body = p.body;
+    const Index nn = body.num_nodes();
+    Points forces = Points::Zero(nn, 3);
+    VolumeProjection reused;
+    reused.project_velocities(body, {}, dt, 0.5 * dt, forces);
+    std::vector<std::uint8_t> fixed;
+    switch (change) {
+      case Change::kNothing: break;
+      case Change::kMass: body.masses[7] *= 1.5; break;
+      case Change::kPlastic: body.Fp[3] = Eigen::Vector3d(1.1, 1.0, 1.0).asDiagonal(); break;
+      case Change::kFraction: body.solid_fractions = Eigen::VectorXd::Constant(body.num_elements(), 0.8); break;
+      case Change::kFixed:
+        fixed.assign(static_cast<std::size_t>(nn), 0);
+        fixed[5] = 1;
+        break;
+      case Change::kStart: body.positions(9, 0) += 1e-4; break;
+    }
+    const Points start = body.positions;
+    // A step along the velocities, then off by up to 1 % of a cell.
+    body.positions = start + dt * body.velocities;
+    for (Index n = 0; n < nn; ++n) body.positions.row(n) += 0.01 * 0.05 * Eigen::RowVector3d(u(rng), u(rng), u(rng));
+    Body copy = body;
+    VolumeProjection fresh;
+    const VolumeProjectionStats a = reused.project(body, start, fixed, dt, 0.5 * dt);
+    const VolumeProjectionStats b = fresh.project(copy, start, fixed, dt, 0.5 * dt);
+    EXPECT_GE(a.newton_iterations, 1);
+    EXPECT_EQ(a.cg_iterations, b.cg_iterations) << static_cast<int>(change);
+    EXPECT_TRUE(body.positions == copy.positions) << static_cast<int>(change);
+    EXPECT_TRUE(body.velocities == copy.velocities) << static_cast<int>(change);
+    if (change == Change::kNothing) {
+      unchanged = body.positions;
+      rng.seed(23);  // the same offsets for every change
+    } else {
+      rng.seed(23);
+      EXPECT_FALSE(body.positions == unchanged) << "the change must matter: " << static_cast<int>(change);
+    }
+  }
 }
 
 TEST(VolumeProjection, BitwiseIdenticalWithOneAndTwoThreads) {
