@@ -218,14 +218,48 @@ bool VolumeProjection::Prepared::same(const Body& body, const Points& at_positio
                                       const std::vector<std::uint8_t>& fixed_nodes) const {
   return valid && positions.rows() == at_positions.rows() && positions == at_positions &&
          masses.size() == body.masses.size() && masses == body.masses && fractions.size() == body.solid_fractions.size() &&
-         fractions == body.solid_fractions && Fp == body.Fp && fixed == fixed_nodes && tets.rows() == body.tets.rows() &&
-         tets == body.tets;
+         fractions == body.solid_fractions && Fp == body.Fp && fixed == fixed_nodes;
+}
+
+bool VolumeProjection::update_neighbourhoods(const Body& body) {
+  Neighbourhoods& h = neighbourhoods_;
+  if (h.tets.rows() == body.tets.rows() && h.tets == body.tets) return false;
+  constexpr std::size_t kMostNeighbours = 64;
+  const Index nn = body.num_nodes();
+  const NodeIncidence& incidence = body.incidence;
+  h.tets = body.tets;
+  h.offsets.assign(at(nn) + 1, 0);
+  h.nodes.clear();
+  h.slots.assign(4 * incidence.corners.size(), -1);
+  h.overflow.assign(at(nn), 0);
+  for (Index i = 0; i < nn; ++i) {
+    const std::size_t first = h.nodes.size();
+    for (Index c = incidence.offsets[at(i)]; c < incidence.offsets[at(i) + 1]; ++c) {
+      const Index e = incidence.corners[at(c)] / 4;
+      for (int k = 0; k < 4; ++k) {
+        const Index j = body.tets(e, k);
+        std::size_t slot = first;
+        while (slot < h.nodes.size() && h.nodes[slot] != j) ++slot;
+        if (slot == h.nodes.size()) {
+          if (slot - first == kMostNeighbours) {
+            h.overflow[at(i)] = 1;
+            continue;
+          }
+          h.nodes.push_back(j);
+        }
+        h.slots[4 * at(c) + static_cast<std::size_t>(k)] = static_cast<Index>(slot - first);
+      }
+    }
+    h.offsets[at(i) + 1] = static_cast<Index>(h.nodes.size());
+  }
+  return true;
 }
 
 void VolumeProjection::prepare(const Body& body, const Points& at_positions, const std::vector<std::uint8_t>& fixed) {
   // Everything below is a function of these (and of the rest volumes,
   // which change only with the mesh, and the sliding nodes, which only a
   // restore has and which it never reuses).
+  if (update_neighbourhoods(body)) prepared_.valid = false;
   if (sliding_ == nullptr && prepared_.same(body, at_positions, fixed)) {
     rest_ = prepared_.rest;
     return;
@@ -238,7 +272,6 @@ void VolumeProjection::prepare(const Body& body, const Points& at_positions, con
     prepared_.fractions = body.solid_fractions;
     prepared_.Fp = body.Fp;
     prepared_.fixed = fixed;
-    prepared_.tets = body.tets;
     prepared_.rest = rest_;
   }
 }
@@ -278,36 +311,28 @@ void VolumeProjection::prepare_anew(const Body& body, const Points& at_positions
   // / m_j is the scale).
   active_.assign(at(nn), 0);
   diagonal_.resize(nn);
+  const Neighbourhoods& h = neighbourhoods_;
   for_each_index(nn, [&](Index i) {
-    std::array<std::pair<Index, Eigen::Vector3d>, 64> local;
-    std::size_t used = 0;
+    std::array<Eigen::Vector3d, 64> local;
+    const Index first = h.offsets[at(i)], used = h.offsets[at(i) + 1] - first;
+    for (Index k = 0; k < used; ++k) local[at(k)].setZero();
     double scale = 0.0;
-    bool overflow = false;
     for (Index c = body.incidence.offsets[at(i)]; c < body.incidence.offsets[at(i) + 1]; ++c) {
       const Index e = body.incidence.corners[at(c)] / 4;
       for (int k = 0; k < 4; ++k) {
         const Index j = body.tets(e, k);
         const Eigen::Vector3d g = 0.25 * gradient_[at(e)].col(k);
         scale += (sliding(j) ? (sliding_->free[at(j)] * g).squaredNorm() : g.squaredNorm()) * inverse_mass_[j];
-        std::size_t slot = 0;
-        while (slot < used && local[slot].first != j) ++slot;
-        if (slot == used) {
-          if (used == local.size()) {
-            overflow = true;
-            continue;
-          }
-          local[used++] = {j, Eigen::Vector3d::Zero()};
-        }
-        local[slot].second += g;
+        if (const Index slot = h.slots[4 * at(c) + static_cast<std::size_t>(k)]; slot >= 0) local[at(slot)] += g;
       }
     }
     double a = 0.0;
-    for (std::size_t k = 0; k < used; ++k) {  // |P_j G_ij|² / m_j
-      const Index j = local[k].first;
-      const Eigen::Vector3d g = sliding(j) ? Eigen::Vector3d(sliding_->free[at(j)] * local[k].second) : local[k].second;
+    for (Index k = 0; k < used; ++k) {  // |P_j G_ij|² / m_j
+      const Index j = h.nodes[at(first + k)];
+      const Eigen::Vector3d g = sliding(j) ? Eigen::Vector3d(sliding_->free[at(j)] * local[at(k)]) : local[at(k)];
       a += g.squaredNorm() * inverse_mass_[j];
     }
-    if (overflow) a = scale;  // more than 63 neighbours: a bound, still positive
+    if (h.overflow[at(i)]) a = scale;  // more than 64 neighbours: a bound, still positive
     const bool on = a > 1e-10 * scale && node_rest_[i] > 0.0;
     active_[at(i)] = on ? 1 : 0;
     diagonal_[i] = on ? a : 1.0;

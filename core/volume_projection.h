@@ -173,10 +173,21 @@ class VolumeProjection {
     Eigen::VectorXd masses, fractions;
     std::vector<Eigen::Matrix3d> Fp;
     std::vector<std::uint8_t> fixed;
-    Tets tets;
     Eigen::VectorXd rest;  ///< rest_ as prepared (its users scale it)
     [[nodiscard]] bool same(const Body& body, const Points& at_positions, const std::vector<std::uint8_t>& fixed) const;
   } prepared_;
+  /// Each node's distinct neighbours (itself included), in the order its
+  /// incidence first meets them (at most 64; `overflow` past that), and the
+  /// neighbour slot of every corner k of every incident element (−1 where
+  /// it overflowed): the preconditioner's diagonal gathers without a search.
+  /// Made once per mesh (the tets they were made for).
+  struct Neighbourhoods {
+    Tets tets;
+    std::vector<Index> offsets, nodes, slots;
+    std::vector<std::uint8_t> overflow;
+  } neighbourhoods_;
+  /// Rebuilds neighbourhoods_ if the mesh changed; true if it did.
+  bool update_neighbourhoods(const Body& body);
   double last_residual_ = 0.0;
   double discrepancy_ = 0.0;  ///< V_s − Σ φ_e V_e when last measured
   int surface_age_ = 0;       ///< projections since it was
