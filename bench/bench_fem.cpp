@@ -1,12 +1,15 @@
-// The finite-element kernels: the SVD and the elastic force pass.
+// The finite-element kernels: the SVD, the elastic force pass, the damping
+// operator and the incompressibility projection.
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
 #include <random>
 
 #include "core/body.h"
+#include "core/damping.h"
 #include "core/elastic_forces.h"
 #include "core/svd3.h"
+#include "core/volume_projection.h"
 
 namespace {
 
@@ -72,5 +75,83 @@ BENCHMARK(BM_ElasticForces)
     ->Args({26, 2})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+/// A box of 6 c³ tets (c cells per side) whose nodes moved at random by up
+/// to `amplitude` of a cell.
+goo::Body moved_box(int cells, double amplitude, bool incompressible) {
+  goo::Material material;
+  material.model = goo::ElasticModel::fixed_corotated;
+  material.incompressible = incompressible;
+  material.viscosity = 100.0;
+  goo::Body body =
+      goo::make_body(goo::make_box_tets(Eigen::Vector3d::Ones(), Eigen::Vector3i::Constant(cells)), material);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-amplitude / cells, amplitude / cells);
+  for (goo::Index n = 0; n < body.num_nodes(); ++n)
+    for (int k = 0; k < 3; ++k) body.positions(n, k) += u(rng);
+  return body;
+}
+
+/// One application of the damping operator (−C v, Newmark's damping solves
+/// apply it once per CG iteration) to random velocities; args: cells per
+/// side, threads. Elements per second.
+void BM_DampingApply(benchmark::State& state) {
+  const int cells = static_cast<int>(state.range(0));
+  const auto threads = static_cast<std::size_t>(state.range(1));
+  const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+  goo::Body body = moved_box(cells, 0.2, false);
+  goo::ElasticForces forces;
+  goo::Points f;
+  forces.evaluate(body, body.positions, 0.0, f);  // Fe and Fp⁻¹ as a step leaves them
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const goo::Points v = goo::Points::NullaryExpr(body.num_nodes(), 3, [&] { return u(rng); });
+  goo::Damping damping;
+  goo::Points out;
+  damping.apply(body, forces.elastic_deformation(), forces.inverse_plastic_deformation(), v, out);
+  for (auto _ : state) {
+    damping.apply(body, forces.elastic_deformation(), forces.inverse_plastic_deformation(), v, out);
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(state.iterations() * body.num_elements());
+  state.counters["tets"] = body.num_elements();
+  state.counters["threads"] = static_cast<double>(threads);
+}
+BENCHMARK(BM_DampingApply)->Args({12, 1})->Args({12, 2})->Args({26, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+/// The incompressibility projection as a Newmark step uses it: the velocity
+/// projection at a step's end, then the next step's position projection
+/// from there (its nodes off by up to 2% of a cell); args: cells per side,
+/// threads. Reports the conjugate-gradient iterations of the pair.
+void BM_VolumeProjection(benchmark::State& state) {
+  const int cells = static_cast<int>(state.range(0));
+  const auto threads = static_cast<std::size_t>(state.range(1));
+  const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+  goo::Body start = moved_box(cells, 0.0, true);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (goo::Index n = 0; n < start.num_nodes(); ++n)
+    start.velocities.row(n) << u(rng), u(rng), u(rng);
+  const double dt = 1e-3;
+  goo::Points offsets(start.num_nodes(), 3);
+  for (goo::Index n = 0; n < start.num_nodes(); ++n)
+    offsets.row(n) << u(rng), u(rng), u(rng);
+  offsets *= 0.02 / cells;
+  goo::VolumeProjection projection;
+  int iterations = 0;
+  for (auto _ : state) {
+    goo::Body body = start;
+    goo::Points forces = goo::Points::Zero(body.num_nodes(), 3);
+    iterations = projection.project_velocities(body, {}, dt, 0.5 * dt, forces).cg_iterations;
+    const goo::Points x = body.positions;
+    body.positions = x + dt * body.velocities + offsets;
+    iterations += projection.project(body, x, {}, dt, 0.5 * dt).cg_iterations;
+    benchmark::DoNotOptimize(body.positions.data());
+  }
+  state.counters["tets"] = start.num_elements();
+  state.counters["cg_iterations"] = iterations;
+  state.counters["threads"] = static_cast<double>(threads);
+}
+BENCHMARK(BM_VolumeProjection)->Args({12, 2})->Args({20, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
