@@ -8,26 +8,48 @@
 
 namespace goo {
 
-void Damping::apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
-                    const std::vector<Eigen::Matrix3d>& Fp_inv, const Points& v, Points& out) {
+void Damping::freeze(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
+                     const std::vector<Eigen::Matrix3d>& Fp_inv) {
   const Index ne = body.num_elements();
-  element_forces_.resize(at(ne));
+  Fe_ = &Fe;
+  A_.resize(at(ne));
+  scale_.resize(at(ne));
   const double beta = body.material.viscosity;
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
     for (Index e = range.begin(); e != range.end(); ++e) {
-      const Eigen::Matrix3d& G = Fe[at(e)];
       const Eigen::Matrix3d& Q = Fp_inv[at(e)];
-      const Eigen::Matrix3d Fe_dot = deformation_gradient(body, v, e) * Q;  // Ḟe = Vs Dm⁻¹ Fp⁻¹
-      const Eigen::Matrix3d E_dot = G.transpose() * Fe_dot;
-      const Eigen::Matrix3d P = 2.0 * beta * G * (0.5 * (E_dot + E_dot.transpose())) * Q.transpose();
-      const double volume = body.rest_volumes[e] / Q.determinant();  // W det Fp
-      const Eigen::Matrix3d H = -volume * P * body.Dm_inv[at(e)].transpose();
+      A_[at(e)] = body.Dm_inv[at(e)] * Q;
+      scale_[at(e)] = 2.0 * beta * body.rest_volumes[e] / Q.determinant();  // 2β W det Fp
+    }
+  });
+}
+
+void Damping::apply(const Body& body, const Points& v, Points& out) {
+  const Index ne = body.num_elements();
+  element_forces_.resize(at(ne));
+  const std::vector<Eigen::Matrix3d>& Fe = *Fe_;
+  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
+    for (Index e = range.begin(); e != range.end(); ++e) {
+      const Eigen::Matrix3d& G = Fe[at(e)];
+      const Eigen::Matrix3d& A = A_[at(e)];
+      const Eigen::RowVector3d v0 = v.row(body.tets(e, 0));
+      Eigen::Matrix3d Vs;
+      for (int k = 0; k < 3; ++k) Vs.col(k) = (v.row(body.tets(e, k + 1)) - v0).transpose();
+      const Eigen::Matrix3d E_dot = G.transpose() * (Vs * A);  // Feᵀ Ḟe
+      const Eigen::Matrix3d S = 0.5 * (E_dot + E_dot.transpose());
+      const Eigen::Matrix3d H = (-scale_[at(e)] * (G * S)) * A.transpose();
       Matrix34& f = element_forces_[at(e)];
       f.col(0) = -H.rowwise().sum();
       f.rightCols<3>() = H;
     }
   });
   gather_to_nodes(body.incidence, element_forces_, out);
+}
+
+void Damping::apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
+                    const std::vector<Eigen::Matrix3d>& Fp_inv, const Points& v, Points& out) {
+  freeze(body, Fe, Fp_inv);
+  apply(body, v, out);
 }
 
 void Damping::diagonal_blocks(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,

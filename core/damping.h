@@ -18,9 +18,19 @@ namespace goo {
 
 class Damping {
  public:
-  /// out (#N×3) = −C v: the viscous forces for nodal velocities v, with the
-  /// elastic deformation Fe and Fp⁻¹ of each element frozen (ElasticForces
-  /// records both at each evaluation).
+  /// Freezes C at the elastic deformation Fe and Fp⁻¹ of each element
+  /// (ElasticForces records both at each evaluation): keeps Fe by reference
+  /// (it must outlive the applications) and computes per element what
+  /// every application would: A = Dm⁻¹ Fp⁻¹ (Ḟe = Vs A, Vs the velocity
+  /// differences) and 2β W det Fp.
+  void freeze(const Body& body, const std::vector<Eigen::Matrix3d>& Fe, const std::vector<Eigen::Matrix3d>& Fp_inv);
+
+  /// out (#N×3) = −C v for nodal velocities v, C as last frozen: per
+  /// element, with S = sym(Feᵀ Vs A), the forces on corners 1–3 are the
+  /// columns of −2β W det(Fp) Fe S Aᵀ and corner 0's minus their sum.
+  void apply(const Body& body, const Points& v, Points& out);
+
+  /// freeze(body, Fe, Fp_inv), then apply(body, v, out).
   void apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe, const std::vector<Eigen::Matrix3d>& Fp_inv,
              const Points& v, Points& out);
 
@@ -33,6 +43,9 @@ class Damping {
 
  private:
   std::vector<Matrix34> element_forces_;
+  const std::vector<Eigen::Matrix3d>* Fe_ = nullptr;  ///< as frozen
+  std::vector<Eigen::Matrix3d> A_;                    ///< Dm⁻¹ Fp⁻¹ per element, as frozen
+  std::vector<double> scale_;                         ///< 2β W det Fp per element, as frozen
   std::vector<std::array<Eigen::Matrix3d, 4>> element_blocks_;
 };
 

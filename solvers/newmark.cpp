@@ -56,6 +56,7 @@ void NewmarkIntegrator::evaluate_forces(Body& body, double plastic_dt) {
   StageTimer timer;
   elastic_.evaluate(body, body.positions, plastic_dt, forces_);
   blocks_fresh_ = false;  // Fe and Fp changed
+  damping_.freeze(body, elastic_.elastic_deformation(), elastic_.inverse_plastic_deformation());
   times_.forces += timer.lap();
   if (body.material.incompressible) volume_.add_pressure_forces(body, body.positions, forces_);
   if (!has_tension(body)) return;
@@ -137,7 +138,7 @@ void NewmarkIntegrator::zero_constrained(Points& a) const {
 }
 
 void NewmarkIntegrator::apply_system(const Body& body, double h, const Points& x, Points& out) {
-  damping_.apply(body, elastic_.elastic_deformation(), elastic_.inverse_plastic_deformation(), x, Cp_);  // −C x
+  damping_.apply(body, x, Cp_);  // −C x, C frozen at the last force evaluation
   out = x;
   for (Index n = 0; n < body.num_nodes(); ++n) out.row(n) *= body.masses[n];
   out -= h * Cp_;
