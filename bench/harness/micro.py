@@ -3,7 +3,7 @@ import json
 
 from common import log, run, table, write_csv, write_json
 
-QUICK = ("BM_Svd3$|BM_ElasticForces/12/|BM_SurfaceTension/0/|BM_Collisions/|BM_AssembleHessian/10/|"
+QUICK = ("BM_Svd3$|BM_ElasticForces/12/|BM_DampingApply/12/|BM_VolumeProjection/12/|BM_SurfaceTension/0/|BM_Collisions/|BM_AssembleHessian/10/|"
          "BM_CholmodFactor/10/|BM_CholmodSolve/10/|BM_(Voxelize|BuildTets|Embed|ExactMass|Transfer|Remesh)/0/8$")
 
 
@@ -23,7 +23,7 @@ def run_section(ctx):
         if b.get("aggregate_name") != "median":
             continue
         row = {"benchmark": b["run_name"], "median": b["real_time"], "unit": b["time_unit"]}
-        for counter in ("tets", "items_per_second"):
+        for counter in ("tets", "items_per_second", "cg_iterations"):
             if counter in b:
                 row[counter] = b[counter]
         rows.append(row)
