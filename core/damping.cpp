@@ -1,4 +1,5 @@
 #include "core/damping.h"
+#include "core/error.h"
 #include "core/parallel.h"
 
 #include <tbb/blocked_range.h>
@@ -26,6 +27,8 @@ void Damping::freeze(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
 
 void Damping::apply(const Body& body, const Points& v, Points& out) {
   const Index ne = body.num_elements();
+  if (Fe_ == nullptr || Fe_->size() != at(ne) || A_.size() != at(ne))
+    throw Error("damping: applied to a body it was not frozen for (Damping::freeze after every force evaluation)");
   element_forces_.resize(at(ne));
   const std::vector<Eigen::Matrix3d>& Fe = *Fe_;
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {

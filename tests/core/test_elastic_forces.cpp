@@ -208,6 +208,23 @@ TEST(Body, LumpedMassesAndIncidence) {
   for (Index e = 0; e < body.num_elements(); ++e) EXPECT_GT(body.rest_volumes[e], 0.0);
 }
 
+TEST(Damping, AFrozenOperatorIsRefusedForABodyItWasNotFrozenFor) {
+  Body body = make_cube(ElasticModel::fixed_corotated, 2);
+  Damping damping;
+  Points out;
+  const Points v = Points::Zero(body.num_nodes(), 3);
+  EXPECT_TRUE(test::throws_error_containing([&] { damping.apply(body, v, out); }, "not frozen"));
+  ElasticForces forces;
+  Points f;
+  forces.evaluate(body, body.positions, 0.0, f);
+  damping.freeze(body, forces.elastic_deformation(), forces.inverse_plastic_deformation());
+  damping.apply(body, v, out);
+  EXPECT_EQ(out.cwiseAbs().maxCoeff(), 0.0);
+  Body bigger = make_cube(ElasticModel::fixed_corotated, 3);
+  EXPECT_TRUE(test::throws_error_containing([&] { damping.apply(bigger, Points::Zero(bigger.num_nodes(), 3), out); },
+                                            "not frozen"));
+}
+
 TEST(TetMesh, CheckRefusesBadElementsAndReorients) {
   TetMesh mesh = make_box_tets(Eigen::Vector3d::Ones(), Eigen::Vector3i::Ones());
   std::swap(mesh.tets(2, 1), mesh.tets(2, 2));
