@@ -25,10 +25,15 @@ void Damping::freeze(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
   });
 }
 
+void Damping::check_frozen(const Body& body) const {
+  const auto ne = at(body.num_elements());
+  if (Fe_ == nullptr || Fe_->size() != ne || A_.size() != ne)
+    throw Error("damping: applied to a body it was not frozen for (Damping::freeze after every force evaluation)");
+}
+
 void Damping::apply(const Body& body, const Points& v, Points& out) {
   const Index ne = body.num_elements();
-  if (Fe_ == nullptr || Fe_->size() != at(ne) || A_.size() != at(ne))
-    throw Error("damping: applied to a body it was not frozen for (Damping::freeze after every force evaluation)");
+  check_frozen(body);
   element_forces_.resize(at(ne));
   const std::vector<Eigen::Matrix3d>& Fe = *Fe_;
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
@@ -57,19 +62,24 @@ void Damping::apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
 
 void Damping::diagonal_blocks(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
                               const std::vector<Eigen::Matrix3d>& Fp_inv, std::vector<Eigen::Matrix3d>& out) {
+  freeze(body, Fe, Fp_inv);
+  diagonal_blocks(body, out);
+}
+
+void Damping::diagonal_blocks(const Body& body, std::vector<Eigen::Matrix3d>& out) {
   const Index ne = body.num_elements();
+  check_frozen(body);
   element_blocks_.resize(at(ne));
-  const double beta = body.material.viscosity;
+  const std::vector<Eigen::Matrix3d>& Fe = *Fe_;
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
     for (Index e = range.begin(); e != range.end(); ++e) {
       const Eigen::Matrix3d& G = Fe[at(e)];
-      const Eigen::Matrix3d& Q = Fp_inv[at(e)];
-      const double scale = beta * body.rest_volumes[e] / Q.determinant();  // β W det Fp
-      // Ḟe = Σ_k v_k w_kᵀ with w_k = Qᵀ g_k, g_k node k's shape-function
-      // gradient (rows of Dm⁻¹, g_0 = −Σ): apply's force on node k is
-      // −2 W det(Fp) β Fe sym(Feᵀ Ḟe) w_k, whose derivative by v_k is the
-      // block below, negated.
-      const Eigen::Matrix3d W = Q.transpose() * body.Dm_inv[at(e)].transpose();  // columns w_1..w_3
+      const double scale = 0.5 * scale_[at(e)];  // β W det Fp (halving a power of two: exact)
+      // Ḟe = Σ_k v_k w_kᵀ with w_k = Fp⁻ᵀ g_k, the columns of Aᵀ (g_k node
+      // k's shape-function gradient, rows of Dm⁻¹, g_0 = −Σ): apply's force
+      // on node k is −2 W det(Fp) β Fe sym(Feᵀ Ḟe) w_k, whose derivative by
+      // v_k is the block below, negated.
+      const Eigen::Matrix3d W = A_[at(e)].transpose();  // columns w_1..w_3
       const Eigen::Matrix3d GGt = G * G.transpose();
       auto& blocks = element_blocks_[at(e)];
       for (int k = 0; k < 4; ++k) {

@@ -38,10 +38,14 @@ class Damping {
   /// elements in the incidence order: C_nn = Σ_e W det(Fp) β (|w|² Fe Feᵀ
   /// + (Fe w)(Fe w)ᵀ), w = Fp⁻ᵀ ∇N_n. The damping solve's block-Jacobi
   /// preconditioner is (m_n I + h C_nn)⁻¹.
+  void diagonal_blocks(const Body& body, std::vector<Eigen::Matrix3d>& out);
+  /// freeze(body, Fe, Fp_inv), then diagonal_blocks(body, out).
   void diagonal_blocks(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
                        const std::vector<Eigen::Matrix3d>& Fp_inv, std::vector<Eigen::Matrix3d>& out);
 
  private:
+  /// Throws unless frozen for a body of this many elements.
+  void check_frozen(const Body& body) const;
   std::vector<Matrix34> element_forces_;
   const std::vector<Eigen::Matrix3d>* Fe_ = nullptr;  ///< as frozen
   std::vector<Eigen::Matrix3d> A_;                    ///< Dm⁻¹ Fp⁻¹ per element, as frozen

@@ -157,7 +157,7 @@ void NewmarkIntegrator::invert_diagonal_blocks(const Body& body, double h) {
   // 8 frames, warm started: 24,436 iterations where mass scaling took 37,979.
   const Index nn = body.num_nodes();
   if (!blocks_fresh_ || blocks_.size() != static_cast<std::size_t>(nn)) {
-    damping_.diagonal_blocks(body, elastic_.elastic_deformation(), elastic_.inverse_plastic_deformation(), blocks_);
+    damping_.diagonal_blocks(body, blocks_);  // C as frozen at the last force evaluation
     blocks_fresh_ = true;
   }
   inverse_blocks_.resize(at(nn));
