@@ -9,6 +9,7 @@
 #include "core/damping.h"
 #include "core/elastic_forces.h"
 #include "core/svd3.h"
+#include "core/svd3_batch.h"
 #include "core/volume_projection.h"
 
 namespace {
@@ -40,6 +41,29 @@ void BM_Svd3Reference(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(batch.size()));
 }
 BENCHMARK(BM_Svd3Reference);
+
+/// The same SVDs kSvdLanes at a time at one instruction-set level (arg:
+/// goo::SimdLevel, 0 scalar, 1 SSE2, 2 AVX2, 3 AVX-512), the batches filled
+/// and emptied as the force kernel does. SVDs per second on one thread.
+void BM_Svd3Batch(benchmark::State& state) {
+  const auto level = static_cast<goo::SimdLevel>(state.range(0));
+  if (!goo::simd_level_supported(level)) {
+    state.SkipWithError("this processor lacks the instruction set");
+    return;
+  }
+  state.SetLabel(std::string(goo::simd_level_name(level)));
+  const auto batch = random_deformations(4096);
+  goo::Svd3Batch lanes{};
+  for (auto _ : state)
+    for (std::size_t first = 0; first < batch.size(); first += goo::kSvdLanes) {
+      for (int lane = 0; lane < goo::kSvdLanes; ++lane)
+        for (int k = 0; k < 9; ++k) lanes.F[k][lane] = batch[first + static_cast<std::size_t>(lane)].data()[k];
+      goo::svd3_batch(lanes, level);
+      benchmark::DoNotOptimize(lanes.sigma[0][0]);
+    }
+  state.SetItemsProcessed(state.iterations() * static_cast<std::int64_t>(batch.size()));
+}
+BENCHMARK(BM_Svd3Batch)->DenseRange(0, 3);
 
 /// One elastic force evaluation (fixed corotated, with SVD) of a deformed box
 /// of 6 c³ tets; args: cells per side c, threads. Elements per second.

@@ -1,9 +1,14 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
 #include <random>
 
 #include "core/svd3.h"
+#include "core/svd3_batch.h"
 #include "tests/common/test_common.h"
 
 namespace goo {
@@ -80,6 +85,105 @@ TEST(Svd3, ExactCases) {
   const Svd3 m = svd3(mirror);
   EXPECT_TRUE(test::matrices_near(m.sigma, Eigen::Vector3d(1, 1, -1), 1e-15));
   expect_valid(mirror, m);
+}
+
+
+/// Matrices that exercise every branch of svd3: random ones, repeated, zero
+/// and inverted singular values over 20 orders of magnitude, F = 0, and
+/// non-finite entries.
+std::vector<Eigen::Matrix3d> hard_matrices() {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<Eigen::Matrix3d> out;
+  for (int i = 0; i < 4000; ++i) {
+    Eigen::Matrix3d F;
+    for (int k = 0; k < 9; ++k) F(k % 3, k / 3) = u(rng);
+    out.push_back(F);
+  }
+  const std::vector<Eigen::Vector3d> spectra = {
+      {1, 1, 1},     {2, 2, 1},        {2, 1, 1},        {3, 2, 0},         {1, 0, 0},
+      {0, 0, 0},     {1, 1, -1},       {2, 1, -0.5},     {1, 0.5, -0.5},    {1, 1, 0},
+      {1e-8, 1e-8, 1e-8}, {5, 1e-9, -1e-9}, {1, 1 + 1e-15, 1 - 1e-15}, {1e100, 1, 1e-100},
+  };
+  for (const auto& spectrum : spectra)
+    for (int trial = 0; trial < 40; ++trial)
+      out.emplace_back(random_rotation(rng) * spectrum.asDiagonal() * random_rotation(rng).transpose());
+  // Axis-aligned: the exact zeros that make the Gram–Schmidt fall back.
+  out.emplace_back(Eigen::Matrix3d::Identity());
+  out.emplace_back(Eigen::Matrix3d::Zero());
+  out.emplace_back(Eigen::Vector3d(1, 1, -1).asDiagonal());
+  out.emplace_back(Eigen::Vector3d(2, 0, 0).asDiagonal());
+  Eigen::Matrix3d rank_one = Eigen::Matrix3d::Zero();
+  rank_one.col(1) = Eigen::Vector3d(0, 0, 3);
+  out.push_back(rank_one);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  Eigen::Matrix3d bad = Eigen::Matrix3d::Identity();
+  bad(0, 0) = nan;
+  out.push_back(bad);
+  bad(0, 0) = 1.0;
+  bad(2, 1) = nan;
+  out.push_back(bad);
+  bad(2, 1) = inf;
+  out.push_back(bad);
+  return out;
+}
+
+bool same_bits(const Svd3& a, const Svd3& b) {
+  return std::memcmp(a.U.data(), b.U.data(), sizeof(double) * 9) == 0 &&
+         std::memcmp(a.V.data(), b.V.data(), sizeof(double) * 9) == 0 &&
+         std::memcmp(a.sigma.data(), b.sigma.data(), sizeof(double) * 3) == 0;
+}
+
+// The batch's contract: every lane gives svd3's bits at every instruction-set
+// level this processor has, whatever the other lanes hold (lanes that
+// converge late, or never, as NaN does, change nothing in the others).
+TEST(Svd3Batch, EveryLevelGivesSvd3sBitsInEveryLane) {
+  const auto matrices = hard_matrices();
+  std::mt19937 rng(3);
+  int levels = 0;
+  for (const SimdLevel level : {SimdLevel::scalar, SimdLevel::sse2, SimdLevel::avx2, SimdLevel::avx512}) {
+    if (!simd_level_supported(level)) continue;
+    ++levels;
+    // In order (neighbours alike), then shuffled (a hard lane among easy ones).
+    for (int pass = 0; pass < 2; ++pass) {
+      std::vector<std::size_t> order(matrices.size());
+      for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+      if (pass == 1) std::shuffle(order.begin(), order.end(), rng);
+      int differing = 0;
+      for (std::size_t first = 0; first + kSvdLanes <= order.size(); first += kSvdLanes) {
+        Svd3Batch batch{};
+        for (int lane = 0; lane < kSvdLanes; ++lane)
+          for (int k = 0; k < 9; ++k) batch.F[k][lane] = matrices[order[first + static_cast<std::size_t>(lane)]].data()[k];
+        svd3_batch(batch, level);
+        for (int lane = 0; lane < kSvdLanes; ++lane) {
+          Svd3 s;
+          for (int k = 0; k < 9; ++k) {
+            s.U.data()[k] = batch.U[k][lane];
+            s.V.data()[k] = batch.V[k][lane];
+          }
+          for (int k = 0; k < 3; ++k) s.sigma[k] = batch.sigma[k][lane];
+          if (!same_bits(s, svd3(matrices[order[first + static_cast<std::size_t>(lane)]]))) ++differing;
+        }
+      }
+      EXPECT_EQ(differing, 0) << simd_level_name(level) << (pass == 0 ? ", in order" : ", shuffled");
+    }
+  }
+  EXPECT_GE(levels, 1);
+  EXPECT_TRUE(simd_level_supported(active_simd_level()));
+}
+
+TEST(Svd3Batch, ZeroAndNonFiniteLanesGiveTheIdentityOrNaNsNotHangs) {
+  Svd3Batch batch{};
+  // All lanes zero but one NaN: σ = 0 and U = V = I for F = 0.
+  batch.F[4][3] = std::numeric_limits<double>::quiet_NaN();
+  svd3_batch(batch);
+  for (int lane = 0; lane < kSvdLanes; ++lane) {
+    if (lane == 3) continue;
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(batch.sigma[k][lane], 0.0);
+    for (int k = 0; k < 9; ++k) EXPECT_EQ(batch.U[k][lane], k % 4 == 0 ? 1.0 : 0.0);
+  }
+  EXPECT_TRUE(std::isnan(batch.sigma[0][3]) || batch.sigma[0][3] == 0.0);
 }
 
 }  // namespace
