@@ -22,6 +22,7 @@
 #include "core/error.h"
 #include "core/log.h"
 #include "core/surface_check.h"
+#include "core/svd3_batch.h"
 #include "io/atomic_file.h"
 #include "io/checkpoint.h"
 #include "io/run_file.h"
@@ -638,6 +639,7 @@ class Run {
       j["momentum_drift"] = nullptr;  // gravity, the ground, obstacles or pins act on the bodies
     }
     j["threads"] = options_.threads;
+    j["simd"] = std::string(simd_level_name(active_simd_level()));
     j["peak_memory_bytes"] = peak_memory_bytes();
     j["setup_peak_memory_bytes"] = setup_peak_bytes;
     j["stepping_peak_memory_bytes"] = stepping_peak_bytes_;
