@@ -132,7 +132,8 @@ void BM_DampingApply(benchmark::State& state) {
   const goo::Points v = goo::Points::NullaryExpr(body.num_nodes(), 3, [&] { return u(rng); });
   goo::Damping damping;
   goo::Points out;
-  damping.freeze(body, forces.elastic_deformation(), forces.inverse_plastic_deformation());  // once per force evaluation
+  damping.freeze(body, forces.elastic_deformation(),
+                 forces.inverse_plastic_deformation());  // once per force evaluation
   damping.apply(body, v, out);
   for (auto _ : state) {
     damping.apply(body, v, out);
@@ -155,12 +156,10 @@ void BM_VolumeProjection(benchmark::State& state) {
   goo::Body start = moved_box(cells, 0.0, true);
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  for (goo::Index n = 0; n < start.num_nodes(); ++n)
-    start.velocities.row(n) << u(rng), u(rng), u(rng);
+  for (goo::Index n = 0; n < start.num_nodes(); ++n) start.velocities.row(n) << u(rng), u(rng), u(rng);
   const double dt = 1e-3;
   goo::Points offsets(start.num_nodes(), 3);
-  for (goo::Index n = 0; n < start.num_nodes(); ++n)
-    offsets.row(n) << u(rng), u(rng), u(rng);
+  for (goo::Index n = 0; n < start.num_nodes(); ++n) offsets.row(n) << u(rng), u(rng), u(rng);
   offsets *= 0.02 / cells;
   goo::VolumeProjection projection;
   int iterations = 0;

@@ -8,7 +8,6 @@
 
 #include "core/plasticity.h"
 #include "core/surface_geometry.h"
-#include "core/svd3_batch.h"
 
 namespace goo {
 
@@ -48,45 +47,28 @@ void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Poi
   // (core/svd3_batch.h: the same bits as one at a time), the rest of each
   // element's work one element at a time.
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
-    Svd3Batch batch;
-    for (Index first = range.begin(); first < range.end(); first += kSvdLanes) {
-      const int lanes = static_cast<int>(std::min<Index>(kSvdLanes, range.end() - first));
-      for (int lane = 0; lane < kSvdLanes; ++lane) {
-        Eigen::Matrix3d Fe = Eigen::Matrix3d::Identity();  // a lane past the range's end
-        if (lane < lanes) {
-          const Index e = first + lane;
-          Fp_inv_[at(e)] = body.Fp[at(e)].inverse();
-          Fe = deformation_gradient(body, x, e) * Fp_inv_[at(e)];
-        }
-        for (int k = 0; k < 9; ++k) batch.F[k][lane] = Fe.data()[k];
+    const auto elastic_deformation = [&](Index e) {
+      Fp_inv_[at(e)] = body.Fp[at(e)].inverse();
+      return Eigen::Matrix3d(deformation_gradient(body, x, e) * Fp_inv_[at(e)]);
+    };
+    for_each_svd3(range.begin(), range.end(), elastic_deformation, [&](Index e, Svd3& svd) {
+      const Eigen::Matrix3d& Dm_inv = body.Dm_inv[at(e)];
+      Eigen::Matrix3d& Fp = body.Fp[at(e)];
+      if (plastic && plastic_flow(material, energy, plastic_dt, svd, Fp, body.alpha[e])) {
+        Fp_inv_[at(e)] = Fp.inverse();
+        flowed_[at(e)] = 1;
       }
-      svd3_batch(batch);
-      for (int lane = 0; lane < lanes; ++lane) {
-        const Index e = first + lane;
-        Svd3 svd;
-        for (int k = 0; k < 9; ++k) {
-          svd.U.data()[k] = batch.U[k][lane];
-          svd.V.data()[k] = batch.V[k][lane];
-        }
-        for (int k = 0; k < 3; ++k) svd.sigma[k] = batch.sigma[k][lane];
-        const Eigen::Matrix3d& Dm_inv = body.Dm_inv[at(e)];
-        Eigen::Matrix3d& Fp = body.Fp[at(e)];
-        if (plastic && plastic_flow(material, energy, plastic_dt, svd, Fp, body.alpha[e])) {
-          Fp_inv_[at(e)] = Fp.inverse();
-          flowed_[at(e)] = 1;
-        }
-        const double stress_free_volume = body.rest_volumes[e] * Fp.determinant();
-        element_forces_[at(e)] = element_forces(energy, svd, Fp_inv_[at(e)], Dm_inv, stress_free_volume);
-        Fe_[at(e)] = svd.U * svd.sigma.asDiagonal() * svd.V.transpose();
+      const double stress_free_volume = body.rest_volumes[e] * Fp.determinant();
+      element_forces_[at(e)] = element_forces(energy, svd, Fp_inv_[at(e)], Dm_inv, stress_free_volume);
+      Fe_[at(e)] = svd.U * svd.sigma.asDiagonal() * svd.V.transpose();
 
-        // Explicit stability bound (algorithms.md, "Time integration").
-        const double grad_sq = Dm_inv.squaredNorm() + Dm_inv.colwise().sum().squaredNorm();
-        const double k_e = modulus * stress_free_volume * grad_sq;
-        double m_min = body.masses[body.tets(e, 0)];
-        for (int k = 1; k < 4; ++k) m_min = std::min(m_min, body.masses[body.tets(e, k)]);
-        element_dt_[at(e)] = std::sqrt(m_min / k_e);
-      }
-    }
+      // Explicit stability bound (algorithms.md, "Time integration").
+      const double grad_sq = Dm_inv.squaredNorm() + Dm_inv.colwise().sum().squaredNorm();
+      const double k_e = modulus * stress_free_volume * grad_sq;
+      double m_min = body.masses[body.tets(e, 0)];
+      for (int k = 1; k < 4; ++k) m_min = std::min(m_min, body.masses[body.tets(e, k)]);
+      element_dt_[at(e)] = std::sqrt(m_min / k_e);
+    });
   });
   gather_to_nodes(body.incidence, element_forces_, f);
   // min and counting are exact in any order.

@@ -51,10 +51,14 @@ SimdLevel level_from_environment() {
 
 std::string_view simd_level_name(SimdLevel level) {
   switch (level) {
-    case SimdLevel::scalar: return "scalar";
-    case SimdLevel::sse2: return "sse2";
-    case SimdLevel::avx2: return "avx2";
-    case SimdLevel::avx512: return "avx512";
+    case SimdLevel::scalar:
+      return "scalar";
+    case SimdLevel::sse2:
+      return "sse2";
+    case SimdLevel::avx2:
+      return "avx2";
+    case SimdLevel::avx512:
+      return "avx512";
   }
   return "unknown";
 }
@@ -63,9 +67,12 @@ bool simd_level_supported(SimdLevel level) {
 #if GOO_SIMD_X86
   switch (level) {
     case SimdLevel::scalar:
-    case SimdLevel::sse2: return true;  // every x86-64 processor
-    case SimdLevel::avx2: return __builtin_cpu_supports("avx2") != 0;
-    case SimdLevel::avx512: return __builtin_cpu_supports("avx512f") != 0;
+    case SimdLevel::sse2:
+      return true;  // every x86-64 processor
+    case SimdLevel::avx2:
+      return __builtin_cpu_supports("avx2") != 0;
+    case SimdLevel::avx512:
+      return __builtin_cpu_supports("avx512f") != 0;
   }
   return false;
 #else
@@ -81,11 +88,19 @@ SimdLevel active_simd_level() {
 void svd3_batch(Svd3Batch& batch, SimdLevel level) {
   switch (level) {
 #if GOO_SIMD_X86
-    case SimdLevel::sse2: svd3_detail::svd3_batch_sse2(batch); return;
-    case SimdLevel::avx2: svd3_detail::svd3_batch_avx2(batch); return;
-    case SimdLevel::avx512: svd3_detail::svd3_batch_avx512(batch); return;
+    case SimdLevel::sse2:
+      svd3_detail::svd3_batch_sse2(batch);
+      return;
+    case SimdLevel::avx2:
+      svd3_detail::svd3_batch_avx2(batch);
+      return;
+    case SimdLevel::avx512:
+      svd3_detail::svd3_batch_avx512(batch);
+      return;
 #endif
-    default: svd3_detail::svd3_batch_scalar(batch); return;
+    default:
+      svd3_detail::svd3_batch_scalar(batch);
+      return;
   }
 }
 

@@ -44,9 +44,15 @@ struct VectorOps {
   static R abs(R x) {
     return reinterpret_cast<R>(reinterpret_cast<M>(x) & (M{} + 0x7fffffffffffffffLL));
   }
-  static R max(R a, R b) { return a < b ? b : a; }
-  static R select(M m, R a, R b) { return m ? a : b; }
-  static M both(M a, M b) { return a & b; }
+  static R max(R a, R b) {
+    return a < b ? b : a;
+  }
+  static R select(M m, R a, R b) {
+    return m ? a : b;
+  }
+  static M both(M a, M b) {
+    return a & b;
+  }
   static bool any(M m) {
     long long bits = 0;  // NOLINT(google-runtime-int)
     for (int k = 0; k < kWidth; ++k) bits |= m[k];

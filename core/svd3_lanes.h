@@ -63,8 +63,7 @@ inline void jacobi_rotate(Mat3<typename Ops::R>& A, Mat3<typename Ops::R>& V, ty
 template <class Ops, int p, int q>
 inline typename Ops::M off_diagonal_left(const Mat3<typename Ops::R>& A) {
   const auto apq = A(p, q);
-  return Ops::both(Ops::abs(apq) > kEpsilon * Ops::sqrt(Ops::abs(A(p, p))) * Ops::sqrt(Ops::abs(A(q, q))),
-                   apq != 0.0);
+  return Ops::both(Ops::abs(apq) > kEpsilon * Ops::sqrt(Ops::abs(A(p, p))) * Ops::sqrt(Ops::abs(A(q, q))), apq != 0.0);
 }
 
 template <class Ops, int p, int q>

@@ -1,8 +1,8 @@
 #include "meshing/transfer.h"
 
-#include <Eigen/Eigenvalues>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <cmath>
@@ -187,7 +187,8 @@ ElementOverlaps element_overlaps(const Tets& old_tets, const Points& old_x, cons
   std::vector<std::array<Plane, 4>> planes(at(mesh.num_elements()));
   tbb::parallel_for(tbb::blocked_range<Index>(0, mesh.num_elements(), kParallelGrain),
                     [&](const tbb::blocked_range<Index>& r) {
-                      for (Index e = r.begin(); e != r.end(); ++e) planes[at(e)] = tet_planes(element_positions(mesh, e));
+                      for (Index e = r.begin(); e != r.end(); ++e)
+                        planes[at(e)] = tet_planes(element_positions(mesh, e));
                     });
   const auto chunks = per_old_chunk<Overlap>(old.size(), [&](Index k, std::vector<Overlap>& found) {
     const OldElement& o = old[at(k)];
@@ -233,12 +234,13 @@ ElasticState transfer_elastic_state(const ElementOverlaps& overlaps, const NodeS
   std::vector<Eigen::Matrix3d> stretch(old_Fe.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, old_Fe.size(), kParallelGrain),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t k = r.begin(); k != r.end(); ++k) {
-                        const Svd3 svd = svd3(old_Fe[k]);
-                        const Eigen::Vector3d log_sigma = svd.sigma.cwiseMax(min_stretch).array().log().matrix();
-                        const Eigen::Matrix3d L = svd.U * log_sigma.asDiagonal() * svd.U.transpose();
-                        stretch[k] = 0.5 * (L + L.transpose());
-                      }
+                      for_each_svd3(
+                          r.begin(), r.end(), [&](std::size_t k) { return old_Fe[k]; },
+                          [&](std::size_t k, const Svd3& svd) {
+                            const Eigen::Vector3d log_sigma = svd.sigma.cwiseMax(min_stretch).array().log().matrix();
+                            const Eigen::Matrix3d L = svd.U * log_sigma.asDiagonal() * svd.U.transpose();
+                            stretch[k] = 0.5 * (L + L.transpose());
+                          });
                     });
   const Index ne = new_mesh.mesh.num_elements();
   ElasticState out;

@@ -87,7 +87,6 @@ TEST(Svd3, ExactCases) {
   expect_valid(mirror, m);
 }
 
-
 /// Matrices that exercise every branch of svd3: random ones, repeated, zero
 /// and inverted singular values over 20 orders of magnitude, F = 0, and
 /// non-finite entries.
@@ -101,9 +100,20 @@ std::vector<Eigen::Matrix3d> hard_matrices() {
     out.push_back(F);
   }
   const std::vector<Eigen::Vector3d> spectra = {
-      {1, 1, 1},     {2, 2, 1},        {2, 1, 1},        {3, 2, 0},         {1, 0, 0},
-      {0, 0, 0},     {1, 1, -1},       {2, 1, -0.5},     {1, 0.5, -0.5},    {1, 1, 0},
-      {1e-8, 1e-8, 1e-8}, {5, 1e-9, -1e-9}, {1, 1 + 1e-15, 1 - 1e-15}, {1e100, 1, 1e-100},
+      {1, 1, 1},
+      {2, 2, 1},
+      {2, 1, 1},
+      {3, 2, 0},
+      {1, 0, 0},
+      {0, 0, 0},
+      {1, 1, -1},
+      {2, 1, -0.5},
+      {1, 0.5, -0.5},
+      {1, 1, 0},
+      {1e-8, 1e-8, 1e-8},
+      {5, 1e-9, -1e-9},
+      {1, 1 + 1e-15, 1 - 1e-15},
+      {1e100, 1, 1e-100},
   };
   for (const auto& spectrum : spectra)
     for (int trial = 0; trial < 40; ++trial)
@@ -154,7 +164,8 @@ TEST(Svd3Batch, EveryLevelGivesSvd3sBitsInEveryLane) {
       for (std::size_t first = 0; first + kSvdLanes <= order.size(); first += kSvdLanes) {
         Svd3Batch batch{};
         for (int lane = 0; lane < kSvdLanes; ++lane)
-          for (int k = 0; k < 9; ++k) batch.F[k][lane] = matrices[order[first + static_cast<std::size_t>(lane)]].data()[k];
+          for (int k = 0; k < 9; ++k)
+            batch.F[k][lane] = matrices[order[first + static_cast<std::size_t>(lane)]].data()[k];
         svd3_batch(batch, level);
         for (int lane = 0; lane < kSvdLanes; ++lane) {
           Svd3 s;
