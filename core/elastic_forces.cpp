@@ -5,6 +5,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "core/plasticity.h"
 #include "core/surface_geometry.h"
@@ -36,7 +37,7 @@ void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Poi
   element_forces_.resize(at(ne));
   Fe_.resize(at(ne));
   Fp_inv_.resize(at(ne));
-  element_dt_.resize(at(ne));
+  element_dt_squared_.resize(at(ne));
   flowed_.assign(at(ne), 0);
   const IsotropicEnergy energy(body.material);
   const Material& material = body.material;
@@ -67,12 +68,15 @@ void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Poi
       const double k_e = modulus * stress_free_volume * grad_sq;
       double m_min = body.masses[body.tets(e, 0)];
       for (int k = 1; k < 4; ++k) m_min = std::min(m_min, body.masses[body.tets(e, k)]);
-      element_dt_[at(e)] = std::sqrt(m_min / k_e);
+      element_dt_squared_[at(e)] = m_min / k_e;
     });
   });
   gather_to_nodes(body.incidence, element_forces_, f);
-  // min and counting are exact in any order.
-  critical_dt_ = ne > 0 ? *std::min_element(element_dt_.begin(), element_dt_.end()) : 0.0;
+  // min and counting are exact in any order. The root of the least ratio is
+  // the least root (√ is correctly rounded and monotonic): one square root
+  // instead of one an element.
+  critical_dt_ =
+      ne > 0 ? std::sqrt(*std::min_element(element_dt_squared_.begin(), element_dt_squared_.end())) : 0.0;
   plastic_count_ = static_cast<Index>(std::count(flowed_.begin(), flowed_.end(), 1));
 }
 

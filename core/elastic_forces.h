@@ -38,7 +38,7 @@ class ElasticForces {
   std::vector<Matrix34> element_forces_;
   std::vector<Eigen::Matrix3d> Fe_;
   std::vector<Eigen::Matrix3d> Fp_inv_;
-  std::vector<double> element_dt_;
+  std::vector<double> element_dt_squared_;  ///< m_min / k_e per element
   std::vector<unsigned char> flowed_;
   double critical_dt_ = 0.0;
   Index plastic_count_ = 0;
