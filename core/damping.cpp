@@ -1,4 +1,5 @@
 #include "core/damping.h"
+#include "core/damping_lanes.h"
 #include "core/error.h"
 #include "core/parallel.h"
 
@@ -9,18 +10,67 @@
 
 namespace goo {
 
+namespace lanes {
+#if GOO_SIMD_X86
+void damping_block_sse2(const DampingBlock& block, DampingLanes& lanes);
+void damping_block_avx2(const DampingBlock& block, DampingLanes& lanes);
+void damping_block_avx512(const DampingBlock& block, DampingLanes& lanes);
+#endif
+}  // namespace lanes
+
+void damping_block(const DampingBlock& block, DampingLanes& batch, SimdLevel level) {
+  switch (level) {
+#if GOO_SIMD_X86
+    case SimdLevel::sse2:
+      lanes::damping_block_sse2(block, batch);
+      return;
+    case SimdLevel::avx2:
+      lanes::damping_block_avx2(block, batch);
+      return;
+    case SimdLevel::avx512:
+      lanes::damping_block_avx512(block, batch);
+      return;
+#endif
+    default:
+      for (int lane = 0; lane < kDampingLanes; ++lane) {
+        lanes::Mat3<double> G, A;
+        double v[4][3], f[4][3];
+        for (int k = 0; k < 9; ++k) {
+          G.m[k] = block.G[k][lane];
+          A.m[k] = block.A[k][lane];
+        }
+        for (int c = 0; c < 4; ++c)
+          for (int i = 0; i < 3; ++i) v[c][i] = batch.v[c][i][lane];
+        lanes::damping_lanes<lanes::ScalarOps>(G, A, block.scale[lane], v, f);
+        for (int c = 0; c < 4; ++c)
+          for (int i = 0; i < 3; ++i) batch.f[c][i][lane] = f[c][i];
+      }
+      return;
+  }
+}
+
 void Damping::freeze(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
                      const std::vector<Eigen::Matrix3d>& Fp_inv) {
   const Index ne = body.num_elements();
   Fe_ = &Fe;
   A_.resize(at(ne));
   scale_.resize(at(ne));
+  // Lanes past the last element stay zero (their forces are never read).
+  blocks_.resize(at((ne + kDampingLanes - 1) / kDampingLanes));
+  if (!blocks_.empty()) blocks_.back() = DampingBlock{};
   const double beta = body.material.viscosity;
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
     for (Index e = range.begin(); e != range.end(); ++e) {
       const Eigen::Matrix3d& Q = Fp_inv[at(e)];
       A_[at(e)] = body.Dm_inv[at(e)] * Q;
       scale_[at(e)] = 2.0 * beta * body.rest_volumes[e] / Q.determinant();  // 2β W det Fp
+      DampingBlock& block = blocks_[at(e / kDampingLanes)];
+      const int lane = static_cast<int>(e % kDampingLanes);
+      for (int k = 0; k < 9; ++k) {
+        block.G[k][lane] = Fe[at(e)].data()[k];
+        block.A[k][lane] = A_[at(e)].data()[k];
+      }
+      block.scale[lane] = scale_[at(e)];
     }
   });
 }
@@ -35,22 +85,27 @@ void Damping::apply(const Body& body, const Points& v, Points& out) {
   const Index ne = body.num_elements();
   check_frozen(body);
   element_forces_.resize(at(ne));
-  const std::vector<Eigen::Matrix3d>& Fe = *Fe_;
-  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
-    for (Index e = range.begin(); e != range.end(); ++e) {
-      const Eigen::Matrix3d& G = Fe[at(e)];
-      const Eigen::Matrix3d& A = A_[at(e)];
-      const Eigen::RowVector3d v0 = v.row(body.tets(e, 0));
-      Eigen::Matrix3d Vs;
-      for (int k = 0; k < 3; ++k) Vs.col(k) = (v.row(body.tets(e, k + 1)) - v0).transpose();
-      const Eigen::Matrix3d E_dot = G.transpose() * (Vs * A);  // Feᵀ Ḟe
-      const Eigen::Matrix3d S = 0.5 * (E_dot + E_dot.transpose());
-      const Eigen::Matrix3d H = (-scale_[at(e)] * (G * S)) * A.transpose();
-      Matrix34& f = element_forces_[at(e)];
-      f.col(0) = -H.rowwise().sum();
-      f.rightCols<3>() = H;
-    }
-  });
+  const SimdLevel level = active_simd_level();
+  const auto blocks = static_cast<Index>(blocks_.size());
+  tbb::parallel_for(tbb::blocked_range<Index>(0, blocks, kParallelGrain / kDampingLanes),
+                    [&](const tbb::blocked_range<Index>& range) {
+                      DampingLanes lanes{};
+                      for (Index b = range.begin(); b != range.end(); ++b) {
+                        const Index first = b * kDampingLanes;
+                        const int count = static_cast<int>(std::min<Index>(kDampingLanes, ne - first));
+                        for (int lane = 0; lane < count; ++lane)
+                          for (int c = 0; c < 4; ++c) {
+                            const Index node = body.tets(first + lane, c);
+                            for (int i = 0; i < 3; ++i) lanes.v[c][i][lane] = v(node, i);
+                          }
+                        damping_block(blocks_[at(b)], lanes, level);
+                        for (int lane = 0; lane < count; ++lane) {
+                          Matrix34& f = element_forces_[at(first + lane)];
+                          for (int c = 0; c < 4; ++c)
+                            for (int i = 0; i < 3; ++i) f(i, c) = lanes.f[c][i][lane];
+                        }
+                      }
+                    });
   gather_to_nodes(body.incidence, element_forces_, out);
 }
 
@@ -92,16 +147,17 @@ void Damping::diagonal_blocks(const Body& body, std::vector<Eigen::Matrix3d>& ou
   const auto& incidence = body.incidence;
   const auto num_nodes = static_cast<Index>(incidence.offsets.size() - 1);
   out.resize(at(num_nodes));
-  tbb::parallel_for(tbb::blocked_range<Index>(0, num_nodes, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
-    for (Index n = range.begin(); n != range.end(); ++n) {
-      Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
-      for (Index c = incidence.offsets[at(n)]; c < incidence.offsets[at(n) + 1]; ++c) {
-        const Index corner = incidence.corners[at(c)];
-        sum += element_blocks_[at(corner / 4)][static_cast<std::size_t>(corner % 4)];
-      }
-      out[at(n)] = sum;
-    }
-  });
+  tbb::parallel_for(tbb::blocked_range<Index>(0, num_nodes, kParallelGrain),
+                    [&](const tbb::blocked_range<Index>& range) {
+                      for (Index n = range.begin(); n != range.end(); ++n) {
+                        Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+                        for (Index c = incidence.offsets[at(n)]; c < incidence.offsets[at(n) + 1]; ++c) {
+                          const Index corner = incidence.corners[at(c)];
+                          sum += element_blocks_[at(corner / 4)][static_cast<std::size_t>(corner % 4)];
+                        }
+                        out[at(n)] = sum;
+                      }
+                    });
 }
 
 double max_strain_rate(const Body& body, const Points& v) {

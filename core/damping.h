@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/body.h"
+#include "core/damping_batch.h"
 #include "core/elastic_forces.h"
 
 namespace goo {
@@ -28,6 +29,8 @@ class Damping {
   /// out (#N×3) = −C v for nodal velocities v, C as last frozen: per
   /// element, with S = sym(Feᵀ Vs A), the forces on corners 1–3 are the
   /// columns of −2β W det(Fp) Fe S Aᵀ and corner 0's minus their sum.
+  /// Eight elements at a time in the processor's vector lanes
+  /// (core/damping_batch.h): the same bits at every width.
   void apply(const Body& body, const Points& v, Points& out);
 
   /// freeze(body, Fe, Fp_inv), then apply(body, v, out).
@@ -50,6 +53,7 @@ class Damping {
   const std::vector<Eigen::Matrix3d>* Fe_ = nullptr;  ///< as frozen
   std::vector<Eigen::Matrix3d> A_;                    ///< Dm⁻¹ Fp⁻¹ per element, as frozen
   std::vector<double> scale_;                         ///< 2β W det Fp per element, as frozen
+  std::vector<DampingBlock> blocks_;                  ///< Fe, A and the scale, eight elements a block
   std::vector<std::array<Eigen::Matrix3d, 4>> element_blocks_;
 };
 

@@ -6,12 +6,12 @@
 
 namespace goo {
 Svd3 svd3(const Eigen::Matrix3d& F) {
-  using svd3_detail::Mat3;
-  using svd3_detail::ScalarOps;
+  using lanes::Mat3;
+  using lanes::ScalarOps;
   Mat3<double> f, u, v;
   for (int k = 0; k < 9; ++k) f.m[k] = F.data()[k];
   Svd3 out;
-  svd3_detail::svd3_lanes<ScalarOps>(f, u, out.sigma.data(), v);
+  lanes::svd3_lanes<ScalarOps>(f, u, out.sigma.data(), v);
   for (int k = 0; k < 9; ++k) {
     out.U.data()[k] = u.m[k];
     out.V.data()[k] = v.m[k];

@@ -7,7 +7,7 @@
 
 namespace goo {
 
-namespace svd3_detail {
+namespace lanes {
 #if GOO_SIMD_X86
 void svd3_batch_sse2(Svd3Batch& batch);
 void svd3_batch_avx2(Svd3Batch& batch);
@@ -47,7 +47,7 @@ SimdLevel level_from_environment() {
 }
 
 }  // namespace
-}  // namespace svd3_detail
+}  // namespace lanes
 
 std::string_view simd_level_name(SimdLevel level) {
   switch (level) {
@@ -81,7 +81,7 @@ bool simd_level_supported(SimdLevel level) {
 }
 
 SimdLevel active_simd_level() {
-  static const SimdLevel level = svd3_detail::level_from_environment();
+  static const SimdLevel level = lanes::level_from_environment();
   return level;
 }
 
@@ -89,17 +89,17 @@ void svd3_batch(Svd3Batch& batch, SimdLevel level) {
   switch (level) {
 #if GOO_SIMD_X86
     case SimdLevel::sse2:
-      svd3_detail::svd3_batch_sse2(batch);
+      lanes::svd3_batch_sse2(batch);
       return;
     case SimdLevel::avx2:
-      svd3_detail::svd3_batch_avx2(batch);
+      lanes::svd3_batch_avx2(batch);
       return;
     case SimdLevel::avx512:
-      svd3_detail::svd3_batch_avx512(batch);
+      lanes::svd3_batch_avx512(batch);
       return;
 #endif
     default:
-      svd3_detail::svd3_batch_scalar(batch);
+      lanes::svd3_batch_scalar(batch);
       return;
   }
 }

@@ -3,33 +3,18 @@
 // supplies the lane type (a double, or a GCC vector of doubles), its mask,
 // and sqrt, abs, max, select and any. Every lane performs the same IEEE
 // operations in the same order whatever the lane type, so the vectorised
-// batch and the scalar svd3 agree bit for bit (tests/core/svd3_test.cpp).
+// batch and the scalar svd3 agree bit for bit (tests/core/test_svd3.cpp).
 //
-// Internal to svd3.cpp and the per-instruction-set translation units
-// (svd3_batch_*.cpp): everything here has internal linkage, so that code
-// compiled for AVX-512 is never shared with a translation unit that runs on
-// a processor without it. It therefore uses no Eigen and no inline function
-// of the standard library.
+// Internal to svd3.cpp, svd3_batch.cpp and the per-instruction-set
+// translation units (simd_kernels_*.cpp), with internal linkage only
+// (lanes.h says why).
+#include "core/lanes.h"
 
-namespace goo::svd3_detail {
+namespace goo::lanes {
 namespace {  // NOLINT(cert-dcl59-cpp, google-build-namespaces): see above
 
 constexpr double kEpsilon = 2.220446049250313080847e-16;  // DBL_EPSILON
 constexpr double kTiny = 2.2250738585072013830903e-308;   // DBL_MIN
-
-/// A 3×3 matrix of lanes, column-major: m[i + 3 j] is row i, column j.
-template <class R>
-struct Mat3 {
-  R m[9];
-  R& operator()(int i, int j) { return m[i + 3 * j]; }
-  const R& operator()(int i, int j) const { return m[i + 3 * j]; }
-};
-
-/// ((a0 b0 + a1 b1) + a2 b2): the order of the sums in every dot product.
-template <class R>
-inline R dot3(const R& a0, const R& a1, const R& a2, const R& b0, const R& b1, const R& b2) {
-  return (a0 * b0 + a1 * b1) + a2 * b2;
-}
 
 /// One Jacobi rotation zeroing A(p, q) of the symmetric A, accumulated in V
 /// (Golub & Van Loan, Matrix Computations, alg. 8.4.1), in the lanes of
@@ -195,20 +180,5 @@ inline void svd3_lanes(const Mat3<typename Ops::R>& F_in, Mat3<typename Ops::R>&
   }
 }
 
-/// The lane type `double`.
-struct ScalarOps {
-  using R = double;
-  using M = bool;
-  static double splat(double x) { return x; }
-  static double sqrt(double x) { return __builtin_sqrt(x); }
-  static double abs(double x) { return __builtin_fabs(x); }
-  /// std::max's choice: b only where a < b.
-  static double max(double a, double b) { return a < b ? b : a; }
-  static double select(bool m, double a, double b) { return m ? a : b; }
-  static bool both(bool a, bool b) { return a && b; }
-  static bool any(bool m) { return m; }
-  static bool all(bool m) { return m; }
-};
-
 }  // namespace
-}  // namespace goo::svd3_detail
+}  // namespace goo::lanes

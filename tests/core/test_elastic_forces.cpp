@@ -2,6 +2,7 @@
 #include <tbb/global_control.h>
 
 #include <Eigen/Geometry>
+#include <cstring>
 #include <random>
 
 #include "core/body.h"
@@ -223,6 +224,82 @@ TEST(Damping, AFrozenOperatorIsRefusedForABodyItWasNotFrozenFor) {
   Body bigger = make_cube(ElasticModel::fixed_corotated, 3);
   EXPECT_TRUE(test::throws_error_containing([&] { damping.apply(bigger, Points::Zero(bigger.num_nodes(), 3), out); },
                                             "not frozen"));
+}
+
+// The operator runs eight elements at a time in vector lanes; each lane must
+// give the bits of the element loop it replaced (Eigen's expressions, below)
+// at every instruction-set level, with a plastic deformation and inverted
+// elements among them, and a last block that is not full (4·5³·6 = 750 is
+// not a multiple of eight).
+TEST(Damping, EveryVectorWidthGivesTheElementLoopsBits) {
+  Body body = make_cube(ElasticModel::neo_hookean, 5);
+  body.material.viscosity = 3.0;
+  ASSERT_NE(body.num_elements() % kDampingLanes, 0);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Points x = body.positions;
+  for (Index n = 0; n < body.num_nodes(); ++n)
+    for (int k = 0; k < 3; ++k) x(n, k) += 0.3 * u(rng);  // inverts some elements
+  for (auto& Fp : body.Fp) Fp += 0.1 * Eigen::Matrix3d::NullaryExpr([&] { return u(rng); });
+  ElasticForces forces;
+  Points f;
+  forces.evaluate(body, x, 0.0, f);
+  const Points v = Points::NullaryExpr(body.num_nodes(), 3, [&] { return u(rng); });
+  const auto& Fe = forces.elastic_deformation();
+  const auto& Fp_inv = forces.inverse_plastic_deformation();
+
+  std::vector<Matrix34> per_element(static_cast<std::size_t>(body.num_elements()));
+  for (Index e = 0; e < body.num_elements(); ++e) {
+    const auto k = static_cast<std::size_t>(e);
+    const Eigen::Matrix3d& G = Fe[k];
+    const Eigen::Matrix3d A = body.Dm_inv[k] * Fp_inv[k];
+    const double scale = 2.0 * body.material.viscosity * body.rest_volumes[e] / Fp_inv[k].determinant();
+    const Eigen::RowVector3d v0 = v.row(body.tets(e, 0));
+    Eigen::Matrix3d Vs;
+    for (int c = 0; c < 3; ++c) Vs.col(c) = (v.row(body.tets(e, c + 1)) - v0).transpose();
+    const Eigen::Matrix3d E_dot = G.transpose() * (Vs * A);
+    const Eigen::Matrix3d S = 0.5 * (E_dot + E_dot.transpose());
+    const Eigen::Matrix3d H = (-scale * (G * S)) * A.transpose();
+    per_element[k].col(0) = -H.rowwise().sum();
+    per_element[k].rightCols<3>() = H;
+  }
+  Points expected;
+  gather_to_nodes(body.incidence, per_element, expected);
+
+  Damping damping;
+  Points out;
+  damping.apply(body, Fe, Fp_inv, v, out);
+  EXPECT_GT(expected.cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(std::memcmp(out.data(), expected.data(), sizeof(double) * static_cast<std::size_t>(out.size())), 0)
+      << "largest difference " << (out - expected).cwiseAbs().maxCoeff();
+
+  // Block by block at every level this processor has.
+  for (const SimdLevel level : {SimdLevel::scalar, SimdLevel::sse2, SimdLevel::avx2, SimdLevel::avx512}) {
+    if (!simd_level_supported(level)) continue;
+    int differing = 0;
+    for (Index first = 0; first < body.num_elements(); first += kDampingLanes) {
+      DampingBlock block{};
+      DampingLanes lanes{};
+      for (int lane = 0; lane < kDampingLanes && first + lane < body.num_elements(); ++lane) {
+        const auto k = static_cast<std::size_t>(first + lane);
+        const Eigen::Matrix3d A = body.Dm_inv[k] * Fp_inv[k];
+        for (int i = 0; i < 9; ++i) {
+          block.G[i][lane] = Fe[k].data()[i];
+          block.A[i][lane] = A.data()[i];
+        }
+        block.scale[lane] = 2.0 * body.material.viscosity * body.rest_volumes[first + lane] / Fp_inv[k].determinant();
+        for (int c = 0; c < 4; ++c)
+          for (int i = 0; i < 3; ++i) lanes.v[c][i][lane] = v(body.tets(first + lane, c), i);
+      }
+      damping_block(block, lanes, level);
+      for (int lane = 0; lane < kDampingLanes && first + lane < body.num_elements(); ++lane)
+        for (int c = 0; c < 4; ++c)
+          for (int i = 0; i < 3; ++i)
+            differing += std::memcmp(&lanes.f[c][i][lane], &per_element[static_cast<std::size_t>(first + lane)](i, c),
+                                     sizeof(double)) != 0;
+    }
+    EXPECT_EQ(differing, 0) << simd_level_name(level);
+  }
 }
 
 TEST(TetMesh, CheckRefusesBadElementsAndReorients) {

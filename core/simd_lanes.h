@@ -1,15 +1,17 @@
 #pragma once
-// The vector lanes of svd3_lanes.h as GCC vectors of one register's doubles, for
-// the instruction set the including translation unit is compiled for
-// (svd3_batch_sse2.cpp, svd3_batch_avx2.cpp, svd3_batch_avx512.cpp). Like
-// svd3_lanes.h, internal linkage only.
+// The lanes of lanes.h as GCC vectors of one register's doubles, for the
+// instruction set the including translation unit is compiled for
+// (simd_kernels_sse2.cpp, simd_kernels_avx2.cpp, simd_kernels_avx512.cpp),
+// and the kernels' batches run through them. Internal linkage only
+// (lanes.h says why).
 #include <immintrin.h>
 
+#include "core/damping_lanes.h"
 #include "core/svd3_batch.h"
 #include "core/svd3_lanes.h"
 
-namespace goo::svd3_detail {
-namespace {  // NOLINT(cert-dcl59-cpp, google-build-namespaces): see svd3_lanes.h
+namespace goo::lanes {
+namespace {  // NOLINT(cert-dcl59-cpp, google-build-namespaces): see lanes.h
 
 /// Doubles per register of the instruction set: GCC splits a wider vector
 /// into pieces through memory, which would forfeit most of the gain.
@@ -81,5 +83,25 @@ inline void svd3_batch_vector(Svd3Batch& batch) {
   }
 }
 
+/// The damping block kWidth lanes at a time.
+inline void damping_block_vector(const DampingBlock& block, DampingLanes& lanes) {
+  constexpr auto bytes = sizeof(Lanes);
+  static_assert(kDampingLanes % kWidth == 0);
+  for (int first = 0; first < kDampingLanes; first += kWidth) {
+    Mat3<Lanes> G, A;
+    Lanes scale, v[4][3], f[4][3];
+    for (int k = 0; k < 9; ++k) {
+      __builtin_memcpy(&G.m[k], &block.G[k][first], bytes);
+      __builtin_memcpy(&A.m[k], &block.A[k][first], bytes);
+    }
+    __builtin_memcpy(&scale, &block.scale[first], bytes);
+    for (int c = 0; c < 4; ++c)
+      for (int i = 0; i < 3; ++i) __builtin_memcpy(&v[c][i], &lanes.v[c][i][first], bytes);
+    damping_lanes<VectorOps>(G, A, scale, v, f);
+    for (int c = 0; c < 4; ++c)
+      for (int i = 0; i < 3; ++i) __builtin_memcpy(&lanes.f[c][i][first], &f[c][i], bytes);
+  }
+}
+
 }  // namespace
-}  // namespace goo::svd3_detail
+}  // namespace goo::lanes

@@ -1,0 +1,30 @@
+#pragma once
+// The frozen damping operator of kDampingLanes consecutive elements, stored
+// component-wise so that one application runs in the processor's vector
+// lanes (core/damping.h; the same bits at every width).
+#include "core/svd3_batch.h"
+
+namespace goo {
+
+inline constexpr int kDampingLanes = 8;
+
+/// Element 8b + lane of block b: G = Fe, A = Dm⁻¹ Fp⁻¹, scale = 2βW det Fp
+/// (column-major, G[i + 3 j][lane]). Lanes past the last element are zero.
+struct alignas(64) DampingBlock {
+  double G[9][kDampingLanes];
+  double A[9][kDampingLanes];
+  double scale[kDampingLanes];
+};
+
+/// A block's nodal velocities in and element forces out: v[k][i][lane] is
+/// component i of corner k's velocity, f likewise.
+struct alignas(64) DampingLanes {
+  double v[4][3][kDampingLanes];
+  double f[4][3][kDampingLanes];
+};
+
+/// f = −C_e v for every lane of the block at `level` (which must be
+/// supported).
+void damping_block(const DampingBlock& block, DampingLanes& lanes, SimdLevel level);
+
+}  // namespace goo

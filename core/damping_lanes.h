@@ -1,0 +1,41 @@
+#pragma once
+// One application of the frozen damping operator (core/damping.h) to
+// kDampingLanes elements at once, written once for any lane type (lanes.h):
+// every lane performs the operations of the element loop Damping::apply ran
+// before, in Eigen's order, so each lane gives that loop's bits.
+//
+// Internal to damping.cpp and the per-instruction-set translation units
+// (simd_kernels_*.cpp), with internal linkage only (lanes.h says why).
+#include "core/damping_batch.h"
+#include "core/lanes.h"
+
+namespace goo::lanes {
+namespace {  // NOLINT(cert-dcl59-cpp, google-build-namespaces): see lanes.h
+
+/// The damping forces of one group of lanes: Ḟe = Vs A, S = sym(Feᵀ Ḟe),
+/// H = (−2βW det Fp) Fe S Aᵀ; node 0 takes −Σ of H's columns.
+template <class Ops>
+inline void damping_lanes(const Mat3<typename Ops::R>& G, const Mat3<typename Ops::R>& A, const typename Ops::R& scale,
+                          const typename Ops::R v[4][3], typename Ops::R f[4][3]) {
+  using R = typename Ops::R;
+  Mat3<R> Vs;
+  for (int k = 0; k < 3; ++k)
+    for (int i = 0; i < 3; ++i) Vs(i, k) = v[k + 1][i] - v[0][i];
+  const Mat3<R> VA = product(Vs, A);
+  const Mat3<R> E = transposed_product(G, VA);  // Feᵀ Ḟe
+  Mat3<R> S;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) S(i, j) = 0.5 * (E(i, j) + E(j, i));
+  // Eigen evaluates (s G S) as (s G) S.
+  Mat3<R> sG;
+  const R minus_scale = -scale;
+  for (int k = 0; k < 9; ++k) sG.m[k] = minus_scale * G.m[k];
+  const Mat3<R> H = product_transposed(product(sG, S), A);
+  for (int i = 0; i < 3; ++i) {
+    f[0][i] = -(H(i, 0) + (H(i, 1) + H(i, 2)));
+    for (int k = 0; k < 3; ++k) f[k + 1][i] = H(i, k);
+  }
+}
+
+}  // namespace
+}  // namespace goo::lanes

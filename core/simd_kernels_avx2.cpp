@@ -1,0 +1,15 @@
+// The batched kernels at the avx2 level; compiled with that instruction set
+// (see core/CMakeLists.txt) and called only where the processor has it.
+#include "core/simd_lanes.h"
+
+namespace goo::lanes {
+
+void svd3_batch_avx2(Svd3Batch& batch) {
+  svd3_batch_vector(batch);
+}
+
+void damping_block_avx2(const DampingBlock& block, DampingLanes& lanes) {
+  damping_block_vector(block, lanes);
+}
+
+}  // namespace goo::lanes
