@@ -19,6 +19,26 @@ Eigen::Matrix3d random_rotation(std::mt19937& rng) {
   return Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized().toRotationMatrix();
 }
 
+/// Repeated, zero and inverted singular values over 200 orders of magnitude.
+std::vector<Eigen::Vector3d> hard_spectra() {
+  return {
+      {1, 1, 1},
+      {2, 2, 1},
+      {2, 1, 1},
+      {3, 2, 0},
+      {1, 0, 0},
+      {0, 0, 0},
+      {1, 1, -1},
+      {2, 1, -0.5},
+      {1, 0.5, -0.5},
+      {1, 1, 0},
+      {1e-8, 1e-8, 1e-8},
+      {5, 1e-9, -1e-9},
+      {1, 1 + 1e-15, 1 - 1e-15},
+      {1e100, 1, 1e-100},
+  };
+}
+
 /// Every property the rotation-variant SVD promises, with ε-derived bounds:
 /// the reconstruction and orthogonality errors are a few ε per operation.
 void expect_valid(const Eigen::Matrix3d& F, const Svd3& s) {
@@ -51,22 +71,7 @@ TEST(Svd3, RandomMatrices) {
 
 TEST(Svd3, RepeatedZeroAndInvertedSingularValues) {
   std::mt19937 rng(2);
-  const std::vector<Eigen::Vector3d> spectra = {
-      {1, 1, 1},
-      {2, 2, 1},
-      {2, 1, 1},
-      {3, 2, 0},
-      {1, 0, 0},
-      {0, 0, 0},
-      {1, 1, -1},
-      {2, 1, -0.5},
-      {1, 0.5, -0.5},
-      {1, 1, 0},
-      {1e-8, 1e-8, 1e-8},
-      {5, 1e-9, -1e-9},
-      {1, 1 + 1e-15, 1 - 1e-15},
-      {1e100, 1, 1e-100},
-  };
+  const std::vector<Eigen::Vector3d> spectra = hard_spectra();
   for (const auto& spectrum : spectra)
     for (int trial = 0; trial < 20; ++trial) {
       const Eigen::Matrix3d F = random_rotation(rng) * spectrum.asDiagonal() * random_rotation(rng).transpose();
@@ -88,7 +93,7 @@ TEST(Svd3, ExactCases) {
 }
 
 /// Matrices that exercise every branch of svd3: random ones, repeated, zero
-/// and inverted singular values over 20 orders of magnitude, F = 0, and
+/// and inverted singular values (hard_spectra), F = 0, and
 /// non-finite entries.
 std::vector<Eigen::Matrix3d> hard_matrices() {
   std::mt19937 rng(7);
@@ -99,22 +104,7 @@ std::vector<Eigen::Matrix3d> hard_matrices() {
     for (int k = 0; k < 9; ++k) F(k % 3, k / 3) = u(rng);
     out.push_back(F);
   }
-  const std::vector<Eigen::Vector3d> spectra = {
-      {1, 1, 1},
-      {2, 2, 1},
-      {2, 1, 1},
-      {3, 2, 0},
-      {1, 0, 0},
-      {0, 0, 0},
-      {1, 1, -1},
-      {2, 1, -0.5},
-      {1, 0.5, -0.5},
-      {1, 1, 0},
-      {1e-8, 1e-8, 1e-8},
-      {5, 1e-9, -1e-9},
-      {1, 1 + 1e-15, 1 - 1e-15},
-      {1e100, 1, 1e-100},
-  };
+  const std::vector<Eigen::Vector3d> spectra = hard_spectra();
   for (const auto& spectrum : spectra)
     for (int trial = 0; trial < 40; ++trial)
       out.emplace_back(random_rotation(rng) * spectrum.asDiagonal() * random_rotation(rng).transpose());
