@@ -6,6 +6,7 @@
 
 #include "core/body.h"
 #include "core/element_elasticity.h"
+#include "core/svd3_batch.h"
 
 namespace goo {
 
@@ -34,6 +35,10 @@ class ElasticForces {
   /// Elements that flowed at the last evaluation.
   [[nodiscard]] Index plastic_elements() const { return plastic_count_; }
 
+  /// The vector instructions evaluate uses (default: active_simd_level();
+  /// the results are the same bits at every level this processor supports).
+  void set_simd_level(SimdLevel level) { simd_level_ = level; }
+
  private:
   std::vector<Matrix34> element_forces_;
   std::vector<Eigen::Matrix3d> Fe_;
@@ -42,6 +47,7 @@ class ElasticForces {
   std::vector<unsigned char> flowed_;
   double critical_dt_ = 0.0;
   Index plastic_count_ = 0;
+  SimdLevel simd_level_ = active_simd_level();
 };
 
 /// Σ_e element_energy at positions x (compensated sum), J.

@@ -27,10 +27,11 @@ inline R dot3(const R& a0, const R& a1, const R& a2, const R& b0, const R& b1, c
   return (a0 * b0 + a1 * b1) + a2 * b2;
 }
 
-/// The products of 3×3 matrices in the order of Eigen's (svd3 and the
-/// damping operator were written with Eigen before they were written for
-/// lanes, and their results were kept to the bit): a b for rows 0 and 1,
-/// a0 b0 + (a1 b1 + a2 b2) for row 2.
+/// The products of 3×3 matrices in the order of Eigen's (svd3, the force
+/// pass and the damping operator were written with Eigen before they were
+/// written for lanes, and their results were kept to the bit): into a
+/// local matrix, Eigen sums rows 0 and 1 as (a0 b0 + a1 b1) + a2 b2, two rows
+/// at a time in a register, and row 2 as a0 b0 + (a1 b1 + a2 b2).
 template <class R>
 inline R eigen_row_sum(int row, const R& a0, const R& a1, const R& a2, const R& b0, const R& b1, const R& b2) {
   return row < 2 ? dot3(a0, a1, a2, b0, b1, b2) : a0 * b0 + (a1 * b1 + a2 * b2);
@@ -54,6 +55,16 @@ inline Mat3<R> transposed_product(const Mat3<R>& X, const Mat3<R>& Y) {
   return out;
 }
 
+/// X Yᵀ as Eigen computes it into a matrix kept in a std::vector, whose
+/// alignment it does not know: every entry a0 b0 + (a1 b1 + a2 b2).
+template <class R>
+inline Mat3<R> product_transposed_into_memory(const Mat3<R>& X, const Mat3<R>& Y) {
+  Mat3<R> out;
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) out(i, j) = X(i, 0) * Y(j, 0) + (X(i, 1) * Y(j, 1) + X(i, 2) * Y(j, 2));
+  return out;
+}
+
 /// X Yᵀ.
 template <class R>
 inline Mat3<R> product_transposed(const Mat3<R>& X, const Mat3<R>& Y) {
@@ -67,6 +78,9 @@ inline Mat3<R> product_transposed(const Mat3<R>& X, const Mat3<R>& Y) {
 struct ScalarOps {
   using R = double;
   using M = bool;
+  static constexpr int kWidth = 1;
+  static double load(const double* p) { return *p; }
+  static void store(double* p, double x) { *p = x; }
   static double splat(double x) { return x; }
   static double sqrt(double x) { return __builtin_sqrt(x); }
   static double abs(double x) { return __builtin_fabs(x); }

@@ -7,6 +7,7 @@
 #include <immintrin.h>
 
 #include "core/damping_lanes.h"
+#include "core/force_lanes.h"
 #include "core/svd3_batch.h"
 #include "core/svd3_lanes.h"
 
@@ -30,6 +31,13 @@ using LaneMask = long long __attribute__((vector_size(8 * kWidth)));  // NOLINT(
 struct VectorOps {
   using R = Lanes;
   using M = LaneMask;
+  static constexpr int kWidth = goo::lanes::kWidth;
+  static R load(const double* p) {
+    R out;
+    __builtin_memcpy(&out, p, sizeof(R));
+    return out;
+  }
+  static void store(double* p, R x) { __builtin_memcpy(p, &x, sizeof(R)); }
   static R splat(double x) { return R{} + x; }
   static R sqrt(R x) {
 #if defined(__AVX512F__)

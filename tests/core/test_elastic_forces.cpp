@@ -9,6 +9,8 @@
 #include "core/damping.h"
 #include "core/elastic_forces.h"
 #include "core/error.h"
+#include "core/plasticity.h"
+#include "core/svd3.h"
 #include "tests/common/finite_differences.h"
 #include "tests/common/test_common.h"
 
@@ -196,8 +198,10 @@ TEST(Damping, DiagonalBlocksAreTheForceOfEachNodesOwnVelocity) {
       damping.apply(body, forces.elastic_deformation(), forces.inverse_plastic_deformation(), v, fd);
       column_by_column.col(k) = -fd.row(n).transpose();
     }
-    EXPECT_LE((blocks[static_cast<std::size_t>(n)] - column_by_column).cwiseAbs().maxCoeff(), 1e-13 * scale) << "node " << n;
-    EXPECT_GT(blocks[static_cast<std::size_t>(n)].ldlt().vectorD().minCoeff(), 0.0) << "node " << n;  // SPD: a preconditioner
+    EXPECT_LE((blocks[static_cast<std::size_t>(n)] - column_by_column).cwiseAbs().maxCoeff(), 1e-13 * scale)
+        << "node " << n;
+    EXPECT_GT(blocks[static_cast<std::size_t>(n)].ldlt().vectorD().minCoeff(), 0.0)
+        << "node " << n;  // SPD: a preconditioner
   }
 }
 
@@ -299,6 +303,77 @@ TEST(Damping, EveryVectorWidthGivesTheElementLoopsBits) {
                                      sizeof(double)) != 0;
     }
     EXPECT_EQ(differing, 0) << simd_level_name(level);
+  }
+}
+
+// The force pass runs eight elements at a time in vector lanes; at every
+// level this processor has, it must give the bits of the one-element code
+// (element_forces after svd3 and plastic_flow, gathered in the incidence
+// order): forces, Fe, Fp⁻¹, the flowed Fp and α, for every model, with
+// inverted elements, plastic flow, and a last batch that is not full.
+TEST(Forces, EveryVectorWidthGivesTheOneElementCodesBits) {
+  for (const ElasticModel model : kModels) {
+    Body start = make_cube(model, 5);
+    start.material.yield_stress = 10.0;
+    start.material.flow_rate = 50.0;
+    start.material.hardening = 5.0;
+    ASSERT_TRUE(start.material.plastic());
+    std::mt19937 rng(12);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    Points x = start.positions;
+    for (Index n = 0; n < start.num_nodes(); ++n)
+      for (int k = 0; k < 3; ++k) x(n, k) += 0.25 * u(rng);  // inverts some elements
+    for (auto& Fp : start.Fp) Fp += 0.1 * Eigen::Matrix3d::NullaryExpr([&] { return u(rng); });
+    const double plastic_dt = 1e-3;
+
+    // The one-element code.
+    Body expected = start;
+    const IsotropicEnergy energy(expected.material);
+    std::vector<Matrix34> per_element(static_cast<std::size_t>(expected.num_elements()));
+    std::vector<Eigen::Matrix3d> Fe(per_element.size()), Fp_inv(per_element.size());
+    int flowed = 0;
+    for (Index e = 0; e < expected.num_elements(); ++e) {
+      const auto k = static_cast<std::size_t>(e);
+      Eigen::Matrix3d& Fp = expected.Fp[k];
+      Fp_inv[k] = Fp.inverse();
+      Svd3 svd = svd3(deformation_gradient(expected, x, e) * Fp_inv[k]);
+      if (plastic_flow(expected.material, energy, plastic_dt, svd, Fp, expected.alpha[e])) {
+        Fp_inv[k] = Fp.inverse();
+        ++flowed;
+      }
+      per_element[k] =
+          element_forces(energy, svd, Fp_inv[k], expected.Dm_inv[k], expected.rest_volumes[e] * Fp.determinant());
+      Fe[k] = svd.U * svd.sigma.asDiagonal() * svd.V.transpose();
+    }
+    Points f_expected;
+    gather_to_nodes(expected.incidence, per_element, f_expected);
+    EXPECT_GT(flowed, 0);
+
+    const auto same = [](const auto& a, const auto& b) {
+      return a.size() == b.size() &&
+             std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
+    };
+    for (const SimdLevel level : {SimdLevel::scalar, SimdLevel::sse2, SimdLevel::avx2, SimdLevel::avx512}) {
+      if (!simd_level_supported(level)) continue;
+      Body body = start;
+      ElasticForces forces;
+      forces.set_simd_level(level);
+      Points f;
+      forces.evaluate(body, x, plastic_dt, f);
+      const std::string what = std::string(to_string(model)) + " at " + std::string(simd_level_name(level));
+      EXPECT_TRUE(same(f, f_expected)) << what << ": largest difference " << (f - f_expected).cwiseAbs().maxCoeff();
+      EXPECT_EQ(forces.plastic_elements(), flowed) << what;
+      int differing_Fe = 0, differing_Fp_inv = 0, differing_Fp = 0;
+      for (std::size_t k = 0; k < per_element.size(); ++k) {
+        differing_Fe += !same(forces.elastic_deformation()[k], Fe[k]);
+        differing_Fp_inv += !same(forces.inverse_plastic_deformation()[k], Fp_inv[k]);
+        differing_Fp += !same(body.Fp[k], expected.Fp[k]);
+      }
+      EXPECT_EQ(differing_Fe, 0) << what;
+      EXPECT_EQ(differing_Fp_inv, 0) << what;
+      EXPECT_EQ(differing_Fp, 0) << what;
+      EXPECT_TRUE(same(body.alpha, expected.alpha)) << what;
+    }
   }
 }
 
