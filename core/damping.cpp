@@ -1,5 +1,4 @@
 #include "core/damping.h"
-#include "core/damping_lanes.h"
 #include "core/error.h"
 #include "core/parallel.h"
 
@@ -9,45 +8,6 @@
 #include <algorithm>
 
 namespace goo {
-
-namespace lanes {
-#if GOO_SIMD_X86
-void damping_block_sse2(const DampingBlock& block, DampingLanes& lanes);
-void damping_block_avx2(const DampingBlock& block, DampingLanes& lanes);
-void damping_block_avx512(const DampingBlock& block, DampingLanes& lanes);
-#endif
-}  // namespace lanes
-
-void damping_block(const DampingBlock& block, DampingLanes& batch, SimdLevel level) {
-  switch (level) {
-#if GOO_SIMD_X86
-    case SimdLevel::sse2:
-      lanes::damping_block_sse2(block, batch);
-      return;
-    case SimdLevel::avx2:
-      lanes::damping_block_avx2(block, batch);
-      return;
-    case SimdLevel::avx512:
-      lanes::damping_block_avx512(block, batch);
-      return;
-#endif
-    default:
-      for (int lane = 0; lane < kDampingLanes; ++lane) {
-        lanes::Mat3<double> G, A;
-        double v[4][3], f[4][3];
-        for (int k = 0; k < 9; ++k) {
-          G.m[k] = block.G[k][lane];
-          A.m[k] = block.A[k][lane];
-        }
-        for (int c = 0; c < 4; ++c)
-          for (int i = 0; i < 3; ++i) v[c][i] = batch.v[c][i][lane];
-        lanes::damping_lanes<lanes::ScalarOps>(G, A, block.scale[lane], v, f);
-        for (int c = 0; c < 4; ++c)
-          for (int i = 0; i < 3; ++i) batch.f[c][i][lane] = f[c][i];
-      }
-      return;
-  }
-}
 
 void Damping::freeze(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
                      const std::vector<Eigen::Matrix3d>& Fp_inv) {

@@ -8,7 +8,6 @@
 #include <cmath>
 
 #include "core/force_batch.h"
-#include "core/force_lanes.h"
 #include "core/plasticity.h"
 #include "core/surface_geometry.h"
 
@@ -32,56 +31,6 @@ void gather_to_nodes(const NodeIncidence& incidence, const std::vector<Matrix34>
                         out.row(n) = sum.transpose();
                       }
                     });
-}
-
-namespace lanes {
-#if GOO_SIMD_X86
-void force_batch_deform_sse2(ForceBatch& batch);
-void force_batch_deform_avx2(ForceBatch& batch);
-void force_batch_deform_avx512(ForceBatch& batch);
-void force_batch_forces_sse2(ForceBatch& batch);
-void force_batch_forces_avx2(ForceBatch& batch);
-void force_batch_forces_avx512(ForceBatch& batch);
-#endif
-}  // namespace lanes
-
-void force_batch_deform(ForceBatch& batch, SimdLevel level) {
-  switch (level) {
-#if GOO_SIMD_X86
-    case SimdLevel::sse2:
-      lanes::force_batch_deform_sse2(batch);
-      return;
-    case SimdLevel::avx2:
-      lanes::force_batch_deform_avx2(batch);
-      return;
-    case SimdLevel::avx512:
-      lanes::force_batch_deform_avx512(batch);
-      return;
-#endif
-    default:
-      lanes::force_batch_deform_lanes<lanes::ScalarOps>(batch);
-      svd3_batch(batch.svd, SimdLevel::scalar);
-      return;
-  }
-}
-
-void force_batch_forces(ForceBatch& batch, SimdLevel level) {
-  switch (level) {
-#if GOO_SIMD_X86
-    case SimdLevel::sse2:
-      lanes::force_batch_forces_sse2(batch);
-      return;
-    case SimdLevel::avx2:
-      lanes::force_batch_forces_avx2(batch);
-      return;
-    case SimdLevel::avx512:
-      lanes::force_batch_forces_avx512(batch);
-      return;
-#endif
-    default:
-      lanes::force_batch_forces_lanes<lanes::ScalarOps>(batch);
-      return;
-  }
 }
 
 void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Points& f) {

@@ -4,21 +4,8 @@
 
 namespace goo::lanes {
 
-void svd3_batch_avx2(Svd3Batch& batch) {
-  svd3_batch_vector(batch);
-}
-
-void damping_block_avx2(const DampingBlock& block, DampingLanes& lanes) {
-  damping_block_vector(block, lanes);
-}
-
-void force_batch_deform_avx2(ForceBatch& batch) {
-  force_batch_deform_lanes<VectorOps>(batch);
-  svd3_batch_vector(batch.svd);
-}
-
-void force_batch_forces_avx2(ForceBatch& batch) {
-  force_batch_forces_lanes<VectorOps>(batch);
+const SimdKernels& kernels_avx2() {
+  return kVectorKernels;
 }
 
 }  // namespace goo::lanes

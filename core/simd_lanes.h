@@ -8,6 +8,7 @@
 
 #include "core/damping_lanes.h"
 #include "core/force_lanes.h"
+#include "core/simd_kernels.h"
 #include "core/svd3_batch.h"
 #include "core/svd3_lanes.h"
 
@@ -110,6 +111,19 @@ inline void damping_block_vector(const DampingBlock& block, DampingLanes& lanes)
       for (int i = 0; i < 3; ++i) __builtin_memcpy(&lanes.f[c][i][first], &f[c][i], bytes);
   }
 }
+
+inline void force_batch_deform_vector(ForceBatch& batch) {
+  force_batch_deform_lanes<VectorOps>(batch);
+  svd3_batch_vector(batch.svd);
+}
+
+inline void force_batch_forces_vector(ForceBatch& batch) {
+  force_batch_forces_lanes<VectorOps>(batch);
+}
+
+/// The kernels of the including translation unit's instruction set.
+constexpr SimdKernels kVectorKernels = {svd3_batch_vector, damping_block_vector, force_batch_deform_vector,
+                                        force_batch_forces_vector};
 
 }  // namespace
 }  // namespace goo::lanes

@@ -3,15 +3,18 @@
 #include <cstdlib>
 #include <string>
 
+#include "core/damping_lanes.h"
+#include "core/force_lanes.h"
+#include "core/simd_kernels.h"
 #include "core/svd3_lanes.h"
 
 namespace goo {
 
 namespace lanes {
 #if GOO_SIMD_X86
-void svd3_batch_sse2(Svd3Batch& batch);
-void svd3_batch_avx2(Svd3Batch& batch);
-void svd3_batch_avx512(Svd3Batch& batch);
+const SimdKernels& kernels_sse2();
+const SimdKernels& kernels_avx2();
+const SimdKernels& kernels_avx512();
 #endif
 
 namespace {
@@ -29,6 +32,34 @@ void svd3_batch_scalar(Svd3Batch& batch) {
     for (int k = 0; k < 3; ++k) batch.sigma[k][lane] = sigma[k];
   }
 }
+
+void damping_block_scalar(const DampingBlock& block, DampingLanes& batch) {
+  for (int lane = 0; lane < kDampingLanes; ++lane) {
+    Mat3<double> G, A;
+    double v[4][3], f[4][3];
+    for (int k = 0; k < 9; ++k) {
+      G.m[k] = block.G[k][lane];
+      A.m[k] = block.A[k][lane];
+    }
+    for (int c = 0; c < 4; ++c)
+      for (int i = 0; i < 3; ++i) v[c][i] = batch.v[c][i][lane];
+    damping_lanes<ScalarOps>(G, A, block.scale[lane], v, f);
+    for (int c = 0; c < 4; ++c)
+      for (int i = 0; i < 3; ++i) batch.f[c][i][lane] = f[c][i];
+  }
+}
+
+void force_batch_deform_scalar(ForceBatch& batch) {
+  force_batch_deform_lanes<ScalarOps>(batch);
+  svd3_batch_scalar(batch.svd);
+}
+
+void force_batch_forces_scalar(ForceBatch& batch) {
+  force_batch_forces_lanes<ScalarOps>(batch);
+}
+
+constexpr SimdKernels kScalarKernels = {svd3_batch_scalar, damping_block_scalar, force_batch_deform_scalar,
+                                        force_batch_forces_scalar};
 
 SimdLevel widest_supported() {
   for (const SimdLevel level : {SimdLevel::avx512, SimdLevel::avx2, SimdLevel::sse2})
@@ -85,23 +116,35 @@ SimdLevel active_simd_level() {
   return level;
 }
 
-void svd3_batch(Svd3Batch& batch, SimdLevel level) {
+const SimdKernels& simd_kernels(SimdLevel level) {
   switch (level) {
 #if GOO_SIMD_X86
     case SimdLevel::sse2:
-      lanes::svd3_batch_sse2(batch);
-      return;
+      return lanes::kernels_sse2();
     case SimdLevel::avx2:
-      lanes::svd3_batch_avx2(batch);
-      return;
+      return lanes::kernels_avx2();
     case SimdLevel::avx512:
-      lanes::svd3_batch_avx512(batch);
-      return;
+      return lanes::kernels_avx512();
 #endif
     default:
-      lanes::svd3_batch_scalar(batch);
-      return;
+      return lanes::kScalarKernels;
   }
+}
+
+void svd3_batch(Svd3Batch& batch, SimdLevel level) {
+  simd_kernels(level).svd3_batch(batch);
+}
+
+void damping_block(const DampingBlock& block, DampingLanes& lanes, SimdLevel level) {
+  simd_kernels(level).damping_block(block, lanes);
+}
+
+void force_batch_deform(ForceBatch& batch, SimdLevel level) {
+  simd_kernels(level).force_batch_deform(batch);
+}
+
+void force_batch_forces(ForceBatch& batch, SimdLevel level) {
+  simd_kernels(level).force_batch_forces(batch);
 }
 
 void svd3_batch(Svd3Batch& batch) {

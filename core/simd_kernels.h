@@ -1,0 +1,21 @@
+#pragma once
+// The batched kernels of one instruction-set level, as a table: svd3_batch,
+// damping_block and the force pass's two halves each look their level up
+// here instead of dispatching by hand.
+#include "core/damping_batch.h"
+#include "core/force_batch.h"
+#include "core/svd3_batch.h"
+
+namespace goo {
+
+struct SimdKernels {
+  void (*svd3_batch)(Svd3Batch& batch);
+  void (*damping_block)(const DampingBlock& block, DampingLanes& lanes);
+  void (*force_batch_deform)(ForceBatch& batch);
+  void (*force_batch_forces)(ForceBatch& batch);
+};
+
+/// The kernels compiled for `level` (which must be supported).
+const SimdKernels& simd_kernels(SimdLevel level);
+
+}  // namespace goo
