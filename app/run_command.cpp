@@ -316,6 +316,7 @@ struct RunPlan {
 RunPlan plan_run(const RunOptions& options) {
   RunPlan plan;
   Scene& scene = plan.scene;
+  (void)active_simd_level();  // refuses a GOO_SIMD it does not know before anything is read or written
   if (options.resume) {
     plan.resumed = io::read_checkpoint(*options.resume);
     const StateRecord& resumed = *plan.resumed;

@@ -1,9 +1,13 @@
 #include "core/svd3_batch.h"
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <cstdlib>
 #include <string>
 
 #include "core/damping_lanes.h"
+#include "core/error.h"
 #include "core/force_lanes.h"
 #include "core/simd_kernels.h"
 #include "core/svd3_lanes.h"
@@ -68,13 +72,15 @@ SimdLevel widest_supported() {
 }
 
 SimdLevel level_from_environment() {
-  SimdLevel level = widest_supported();
+  const SimdLevel widest = widest_supported();
   const char* const requested = std::getenv("GOO_SIMD");  // NOLINT(concurrency-mt-unsafe): read once, at first use
-  if (requested == nullptr) return level;
-  for (const SimdLevel narrower : {SimdLevel::scalar, SimdLevel::sse2, SimdLevel::avx2, SimdLevel::avx512})
-    if (simd_level_name(narrower) == requested && static_cast<int>(narrower) < static_cast<int>(level))
-      level = narrower;
-  return level;
+  if (requested == nullptr || *requested == '\0') return widest;
+  for (const SimdLevel named : {SimdLevel::scalar, SimdLevel::sse2, SimdLevel::avx2, SimdLevel::avx512})
+    if (simd_level_name(named) == requested) return std::min(named, widest);
+  // A misspelt cap would otherwise run at full width unnoticed: a speed
+  // comparison would then compare nothing.
+  throw Error(fmt::format("environment variable GOO_SIMD: unknown vector width \"{}\" (scalar, sse2, avx2 or avx512)",
+                          requested));
 }
 
 }  // namespace

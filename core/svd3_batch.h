@@ -30,7 +30,9 @@ bool simd_level_supported(SimdLevel level);
 
 /// The level svd3_batch uses: the widest this processor supports, or a
 /// narrower one named by the environment variable GOO_SIMD (scalar, sse2,
-/// avx2; a wider one than the processor has is not taken). Read once.
+/// avx2; a wider one than the processor has is not taken; empty is unset).
+/// Read once; any other value throws goo::Error naming the variable (and is
+/// read again at the next call).
 SimdLevel active_simd_level();
 
 /// U, σ, V of every lane's F at `level` (which must be supported).

@@ -184,6 +184,33 @@ TEST_F(GooRestart, EveryVectorWidthWritesTheSameFrames) {
   }
 }
 
+// A GOO_SIMD the run does not know is refused by name (exit 2) before
+// anything is written, rather than ignored: a misspelt cap would run at
+// full width and a speed comparison compare nothing.
+TEST(GooRun, AnUnknownVectorWidthIsRefused) {
+  test::TempDir dir;
+  dir.write("drop.json", kDrop);
+  for (const std::string width : {"avx3", "AVX2", "none"}) {
+    SCOPED_TRACE(width);
+    const CommandResult run =
+        goo(args({"run", quoted(dir / "drop.json"), "--out", quoted(dir / "out"), "--quiet"}), "GOO_SIMD=" + width);
+    EXPECT_EQ(run.exit_code, 2);
+    EXPECT_THAT(run.err, HasSubstr("GOO_SIMD"));
+    EXPECT_THAT(run.err, HasSubstr("\"" + width + "\""));
+    EXPECT_FALSE(fs::exists(dir / "out"));
+  }
+  // An empty value is no cap (as unset), and the widest name is a cap too,
+  // never above what the processor has.
+  for (const std::string width : {"", "avx512"}) {
+    const CommandResult run = goo(
+        args({"run", quoted(dir / "drop.json"), "--frames 1 --overwrite --out", quoted(dir / "out"), "--quiet"}),
+        "GOO_SIMD=" + width);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_THAT((std::vector<std::string>{"sse2", "avx2", "avx512"}),
+                ::testing::Contains(nlohmann::json::parse(slurp(dir / "out/summary.json"))["simd"].get<std::string>()));
+  }
+}
+
 // A body of a tetrahedral mesh (no lattice) under the static integrator,
 // its gravity ramped: a run resumed from its frame-12 checkpoint writes
 // frames 13 to 24 and the last checkpoint byte for byte as the run never
