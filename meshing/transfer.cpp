@@ -12,6 +12,7 @@
 #include "core/parallel.h"
 #include "core/svd3.h"
 #include "meshing/convex_clip.h"
+#include "meshing/lattice_slicing.h"
 
 namespace goo {
 namespace {
@@ -19,7 +20,6 @@ namespace {
 /// An old element in its deformed shape.
 struct OldElement {
   std::array<Eigen::Vector3d, 4> x;
-  std::array<Plane, 4> planes;
   Eigen::Matrix3d Ds_inv;
   Eigen::Vector3d lo, hi;
   bool usable = false;  // positively oriented, not flat
@@ -40,10 +40,7 @@ std::vector<OldElement> old_elements(const Tets& tets, const Points& x) {
                         const double scale = (o.hi - o.lo).maxCoeff();
                         const double det = Ds.determinant();
                         o.usable = std::isfinite(det) && det > 1e-12 * scale * scale * scale;
-                        if (o.usable) {
-                          o.Ds_inv = Ds.inverse();
-                          o.planes = tet_planes(o.x);
-                        }
+                        if (o.usable) o.Ds_inv = Ds.inverse();
                       }
                     });
   return out;
@@ -52,11 +49,6 @@ std::vector<OldElement> old_elements(const Tets& tets, const Points& x) {
 Eigen::Vector4d barycentric(const OldElement& o, const Eigen::Vector3d& p) {
   const Eigen::Vector3d b = o.Ds_inv * (p - o.x[0]);
   return {1.0 - b.sum(), b.x(), b.y(), b.z()};
-}
-
-std::array<Eigen::Vector3d, 4> element_positions(const TetMesh& mesh, Index e) {
-  return {mesh.positions.row(mesh.tets(e, 0)).transpose(), mesh.positions.row(mesh.tets(e, 1)).transpose(),
-          mesh.positions.row(mesh.tets(e, 2)).transpose(), mesh.positions.row(mesh.tets(e, 3)).transpose()};
 }
 
 double distance_to(const OldElement& o, const Eigen::Vector3d& p) {
@@ -177,32 +169,21 @@ ElementOverlaps element_overlaps(const Tets& old_tets, const Points& old_x, cons
   const std::vector<OldElement> old = old_elements(old_tets, old_x);
   const BccLattice& lattice = new_mesh.lattice;
   const TetMesh& mesh = new_mesh.mesh;
-  const double tolerance = 1e-12 * lattice.spacing();
   struct Overlap {
     Index element;
     Index old;
     double volume;
   };
-  // The new elements' planes, once.
-  std::vector<std::array<Plane, 4>> planes(at(mesh.num_elements()));
-  tbb::parallel_for(tbb::blocked_range<Index>(0, mesh.num_elements(), kParallelGrain),
-                    [&](const tbb::blocked_range<Index>& r) {
-                      for (Index e = r.begin(); e != r.end(); ++e)
-                        planes[at(e)] = tet_planes(element_positions(mesh, e));
-                    });
+  // Each old element sliced along the lattice's planes (lattice_slicing.h):
+  // its part in each lattice tetrahedron, no candidate pairs to reject.
   const auto chunks = per_old_chunk<Overlap>(old.size(), [&](Index k, std::vector<Overlap>& found) {
     const OldElement& o = old[at(k)];
     if (!o.usable) return;
-    lattice.for_each_tet_near(o.lo, o.hi, [&](BccLattice::Key key) {
-      const Index e = new_mesh.element(key);
-      if (e < 0) return;
-      const auto x = element_positions(mesh, e);
-      const Eigen::Vector3d lo = x[0].cwiseMin(x[1]).cwiseMin(x[2]).cwiseMin(x[3]);
-      const Eigen::Vector3d hi = x[0].cwiseMax(x[1]).cwiseMax(x[2]).cwiseMax(x[3]);
-      if ((lo.array() >= o.hi.array()).any() || (hi.array() <= o.lo.array()).any()) return;
-      const double v = tet_overlap_volume(x, planes[at(e)], o.x, o.planes, tolerance);
-      if (v > 0.0) found.push_back({e, k, v});
-    });
+    thread_local LatticeSlicer slicer;  // scratch only: the parts do not depend on the thread
+    thread_local std::vector<std::pair<BccLattice::Key, double>> parts;
+    slicer.overlaps(lattice, o.x, 1e-12, parts);
+    for (const auto& [key, volume] : parts)
+      if (const Index e = new_mesh.element(key); e >= 0) found.push_back({e, k, volume});
   });
   ElementOverlaps out;
   out.offsets.assign(static_cast<std::size_t>(mesh.num_elements()) + 1, 0);

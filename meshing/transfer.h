@@ -2,8 +2,9 @@
 // Carrying a body's state from its old, deformed mesh to a new lattice mesh
 // built in the current configuration (W&T sec. 5 and 8; algorithms.md,
 // "Remeshing"). Old elements are found through the new lattice (the nodes
-// and lattice tetrahedra inside each old element's bounding box): constant
-// time per query, no spatial tree.
+// inside each old element's bounding box, and its parts in each lattice
+// tetrahedron by slicing along the lattice's planes): constant time per
+// query, no spatial tree.
 #include <vector>
 
 #include "core/types.h"

@@ -1,0 +1,53 @@
+#pragma once
+// A tetrahedron cut into its parts in each lattice tetrahedron by slicing
+// along the lattice's planes. Every face of a BCC lattice tetrahedron lies
+// on a plane u_a ± u_b = k (u = (x − o) / h, integer k, a ≠ b), and no such
+// plane crosses one: the lattice tetrahedra are the cells of the
+// arrangement of these six families of planes. Slicing a convex polyhedron
+// by every plane of each family in turn leaves pieces that each lie in one
+// lattice tetrahedron, with no search for candidates and no pair of
+// tetrahedra clipped against each other.
+#include <array>
+#include <utility>
+#include <vector>
+
+#include "core/types.h"
+#include "meshing/bcc_lattice.h"
+
+namespace goo {
+
+/// The slicing, with its scratch space (reused from call to call: keep one
+/// per thread).
+class LatticeSlicer {
+ public:
+  /// A face: a convex polygon. A piece is the intersection of a tetrahedron
+  /// (4 faces) and a slab of each family sliced so far (2 faces each), so it
+  /// has at most 16 faces, and a face at most 15 vertices.
+  struct Face {
+    static constexpr int kCapacity = 16;
+    std::array<Eigen::Vector3d, kCapacity> v;
+    int size = 0;
+  };
+  struct Piece {
+    static constexpr int kCapacity = 16;
+    std::array<Face, kCapacity> faces;
+    int size = 0;
+  };
+
+  /// The volume of the positively oriented tetrahedron x in each lattice
+  /// tetrahedron it overlaps, as (key, volume in m³) with volume > 0, keys
+  /// increasing and each once (a tetrahedron of the block only; parts
+  /// outside the block are dropped). Vertices within `tolerance` (in units
+  /// of the spacing) of a plane count as on it, so a face lying on a lattice
+  /// plane cuts nothing off. Exact up to round-off.
+  void overlaps(const BccLattice& lattice, const std::array<Eigen::Vector3d, 4>& x, double tolerance,
+                std::vector<std::pair<BccLattice::Key, double>>& out);
+
+ private:
+  void reserve(std::size_t more);
+  std::vector<Piece> pool_;
+  std::size_t pool_count_ = 0;
+  std::vector<std::size_t> current_, next_;
+};
+
+}  // namespace goo
