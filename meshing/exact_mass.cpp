@@ -4,12 +4,16 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 #include "core/error.h"
 #include "core/parallel.h"
 #include "meshing/convex_clip.h"
+#include "meshing/lattice_slicing.h"
 
 namespace goo {
 namespace {
@@ -19,53 +23,75 @@ std::array<Eigen::Vector3d, 4> element_positions(const TetMesh& mesh, Index e) {
           mesh.positions.row(mesh.tets(e, 2)).transpose(), mesh.positions.row(mesh.tets(e, 3)).transpose()};
 }
 
-/// For each element, the triangles whose bounding box meets its own, in
-/// increasing triangle order (compressed rows).
-struct ElementTriangles {
-  std::vector<Index> offsets;
-  std::vector<Index> triangles;
+/// For each node, the least distance to the plane of a surface triangle
+/// whose bounding box holds the node: 0 where the surface passes through it.
+/// A minimum does not depend on the order it is taken in: the same for any
+/// number of threads.
+std::vector<double> node_surface_distances(const LatticeMesh& lm, const TriangleMesh& surface) {
+  const BccLattice& lattice = lm.lattice;
+  std::vector<std::atomic<std::uint64_t>> nearest(at(lm.mesh.num_nodes()));
+  // The bits of a non-negative double order as the double does.
+  for (auto& d : nearest) d.store(std::bit_cast<std::uint64_t>(std::numeric_limits<double>::infinity()));
+  const Eigen::Vector3d slack = Eigen::Vector3d::Constant(1e-9 * lattice.spacing());
+  tbb::parallel_for(tbb::blocked_range<Index>(0, surface.num_triangles(), kParallelGrain),
+                    [&](const tbb::blocked_range<Index>& r) {
+                      for (Index t = r.begin(); t != r.end(); ++t) {
+                        const Eigen::Vector3d a = surface.vertices.row(surface.triangles(t, 0)).transpose();
+                        const Eigen::Vector3d b = surface.vertices.row(surface.triangles(t, 1)).transpose();
+                        const Eigen::Vector3d c = surface.vertices.row(surface.triangles(t, 2)).transpose();
+                        const Eigen::Vector3d n = (b - a).cross(c - a);
+                        if (n.squaredNorm() == 0.0) continue;
+                        const Eigen::Vector3d unit = n.normalized();
+                        lattice.for_each_node_in(a.cwiseMin(b).cwiseMin(c) - slack, a.cwiseMax(b).cwiseMax(c) + slack,
+                                                 [&](BccLattice::Key key) {
+                                                   const Index node = lm.node(key);
+                                                   if (node < 0) return;
+                                                   const std::uint64_t d = std::bit_cast<std::uint64_t>(
+                                                       std::abs(unit.dot(lattice.position(key) - a)));
+                                                   std::atomic<std::uint64_t>& slot = nearest[at(node)];
+                                                   std::uint64_t seen = slot.load(std::memory_order_relaxed);
+                                                   while (d < seen && !slot.compare_exchange_weak(seen, d)) {
+                                                   }
+                                                 });
+                      }
+                    });
+  std::vector<double> out(nearest.size());
+  for (std::size_t n = 0; n < out.size(); ++n) out[n] = std::bit_cast<double>(nearest[n].load());
+  return out;
+}
+
+/// The apex of each element: the vertex farthest from the surface's planes
+/// (so never on the surface), the first on a tie.
+std::vector<std::uint8_t> element_apexes(const TetMesh& mesh, const std::vector<double>& distance) {
+  std::vector<std::uint8_t> out(at(mesh.num_elements()), 0);
+  for (Index e = 0; e < mesh.num_elements(); ++e)
+    for (int k = 1; k < 4; ++k)
+      if (distance[at(mesh.tets(e, k))] > distance[at(mesh.tets(e, out[at(e)]))]) out[at(e)] = static_cast<std::uint8_t>(k);
+  return out;
+}
+
+/// A surface part's share of its element's integrals: its cone from the
+/// apex p minus the cone over its shadow on the face opposite p.
+struct PartIntegrals {
+  Index element;
+  ConeIntegrals integrals;
 };
 
-ElementTriangles candidate_triangles(const LatticeMesh& lm, const TriangleMesh& surface) {
-  const BccLattice& lattice = lm.lattice;
-  constexpr std::size_t kChunk = 256;
-  const auto num_triangles = static_cast<std::size_t>(surface.num_triangles());
-  std::vector<std::vector<std::pair<Index, Index>>> chunks((num_triangles + kChunk - 1) / kChunk);
-  const double slack = 1e-9 * lattice.spacing();
-  tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t chunk) {
-    auto& found = chunks[chunk];
-    for (std::size_t index = chunk * kChunk; index < std::min(num_triangles, (chunk + 1) * kChunk); ++index) {
-      const auto t = static_cast<Index>(index);
-      Eigen::Vector3d lo = surface.vertices.row(surface.triangles(t, 0)), hi = lo;
-      for (int k = 1; k < 3; ++k) {
-        lo = lo.cwiseMin(surface.vertices.row(surface.triangles(t, k)).transpose());
-        hi = hi.cwiseMax(surface.vertices.row(surface.triangles(t, k)).transpose());
-      }
-      lattice.for_each_tet_near(lo, hi, [&](BccLattice::Key key) {
-        const Index e = lm.element(key);
-        if (e < 0) return;
-        const auto x = element_positions(lm.mesh, e);
-        Eigen::Vector3d tet_lo = x[0], tet_hi = x[0];
-        for (const auto& p : x) {
-          tet_lo = tet_lo.cwiseMin(p);
-          tet_hi = tet_hi.cwiseMax(p);
-        }
-        if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any()) return;
-        found.emplace_back(e, t);
-      });
-    }
-  });
-  // Counting sort by element; chunks in order keep triangles increasing.
-  ElementTriangles out;
-  out.offsets.assign(static_cast<std::size_t>(lm.mesh.num_elements()) + 1, 0);
-  for (const auto& chunk : chunks)
-    for (const auto& [e, t] : chunk) ++out.offsets[at(e) + 1];
-  for (std::size_t e = 0; e + 1 < out.offsets.size(); ++e) out.offsets[e + 1] += out.offsets[e];
-  out.triangles.resize(at(out.offsets.back()));
-  std::vector<Index> fill(out.offsets.begin(), out.offsets.end() - 1);
-  for (const auto& chunk : chunks)
-    for (const auto& [e, t] : chunk) out.triangles[at(fill[at(e)]++)] = t;
-  return out;
+ConeIntegrals part_integrals(const std::array<Eigen::Vector3d, 4>& x, int apex, const Polygon& piece) {
+  const Eigen::Vector3d& p = x[static_cast<std::size_t>(apex)];
+  const Plane opposite = tet_planes(x)[static_cast<std::size_t>(apex)];
+  const double height = -opposite.distance(p);
+  ConeIntegrals integrals;
+  integrals.add_cone(p, piece);
+  // The piece's shadow on the opposite face, seen from p.
+  Polygon shadow = piece;
+  for (int i = 0; i < shadow.size; ++i) {
+    const Eigen::Vector3d y = piece.v[static_cast<std::size_t>(i)] - p;
+    const double along = y.dot(opposite.normal);
+    shadow.v[static_cast<std::size_t>(i)] = along > 1e-300 ? Eigen::Vector3d(p + y * (height / along)) : p;
+  }
+  integrals.add_cone(p, shadow, -1.0);
+  return integrals;
 }
 
 }  // namespace
@@ -75,63 +101,58 @@ ElementSolid clip_solid_to_elements(const LatticeMesh& lm, const TriangleMesh& s
   const Index ne = mesh.num_elements();
   if (static_cast<Index>(lm.node_inside.size()) != mesh.num_nodes())
     throw Error("clip_solid_to_elements: the lattice mesh has no inside flags for its nodes");
-  const ElementTriangles candidates = candidate_triangles(lm, surface);
+  const std::vector<std::uint8_t> apex = element_apexes(mesh, node_surface_distances(lm, surface));
+  // Each triangle sliced along the lattice's planes (lattice_slicing.h) into
+  // its parts in each element, and each part's integrals taken at once, per
+  // chunk of triangles in parallel; then summed per element in triangle order.
+  constexpr std::size_t kChunk = 256;
+  const auto num_triangles = static_cast<std::size_t>(surface.num_triangles());
+  std::vector<std::vector<PartIntegrals>> chunks((num_triangles + kChunk - 1) / kChunk);
+  tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t chunk) {
+    thread_local LatticeSlicer slicer;  // scratch only: the parts do not depend on the thread
+    thread_local std::vector<PolygonPart> parts;
+    auto& found = chunks[chunk];
+    found.reserve(2 * kChunk);
+    for (std::size_t index = chunk * kChunk; index < std::min(num_triangles, (chunk + 1) * kChunk); ++index) {
+      const auto t = static_cast<Index>(index);
+      Polygon triangle;
+      for (int k = 0; k < 3; ++k) triangle.push(surface.vertices.row(surface.triangles(t, k)).transpose());
+      const Eigen::Vector3d n = (triangle.v[1] - triangle.v[0]).cross(triangle.v[2] - triangle.v[0]);
+      if (n.squaredNorm() == 0.0) continue;  // a degenerate triangle bounds no volume
+      slicer.polygon_parts(lm.lattice, triangle, 1e-12, parts);
+      // Every surface part lies in a kept element (a kept element is one an
+      // inside node or a triangle reaches); a part of round-off size may not.
+      for (const PolygonPart& part : parts)
+        if (const Index e = lm.element(part.key); e >= 0)
+          found.push_back({e, part_integrals(element_positions(mesh, e), apex[at(e)], part.polygon)});
+    }
+  });
+  // Counting sort by element; chunks in order keep triangles increasing.
+  std::vector<Index> offsets(at(ne) + 1, 0);
+  for (const auto& chunk : chunks)
+    for (const PartIntegrals& part : chunk) ++offsets[at(part.element) + 1];
+  for (std::size_t e = 0; e + 1 < offsets.size(); ++e) offsets[e + 1] += offsets[e];
+  std::vector<const ConeIntegrals*> sorted(at(offsets.back()));
+  std::vector<Index> fill(offsets.begin(), offsets.end() - 1);
+  for (const auto& chunk : chunks)
+    for (const PartIntegrals& part : chunk) sorted[at(fill[at(part.element)]++)] = &part.integrals;
   ElementSolid out;
   out.volume.resize(ne);
   out.centroid.resize(ne, 3);
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
-    std::vector<Polygon> pieces;
-    std::vector<Eigen::Vector4d> piece_planes;  // unit normal, offset of each piece's triangle
     for (Index e = r.begin(); e != r.end(); ++e) {
       const auto x = element_positions(mesh, e);
-      const auto planes = tet_planes(x);
-      pieces.clear();
-      piece_planes.clear();
-      for (Index c = candidates.offsets[at(e)]; c < candidates.offsets[at(e) + 1]; ++c) {
-        const Index t = candidates.triangles[at(c)];
-        Polygon piece;
-        for (int k = 0; k < 3; ++k) piece.push(surface.vertices.row(surface.triangles(t, k)).transpose());
-        const Eigen::Vector3d n = (piece.v[1] - piece.v[0]).cross(piece.v[2] - piece.v[0]);
-        if (n.squaredNorm() == 0.0) continue;  // a degenerate triangle bounds no volume
-        // Every candidate's plane counts for the apex, clipped away or not: a
-        // vertex may touch the surface where nothing of it is inside.
-        const Eigen::Vector3d unit = n.normalized();
-        piece_planes.emplace_back(unit.x(), unit.y(), unit.z(), unit.dot(piece.v[0]));
-        for (const Plane& plane : planes) piece = clip(piece, plane);
-        if (piece.size >= 3) pieces.push_back(piece);
-      }
-      // Apex: the vertex farthest from the candidates' planes, so not on the
-      // surface (triangles that are not candidates cannot reach the element).
-      int apex = 0;
-      double best = -1.0;
-      for (int k = 0; k < 4; ++k) {
-        double nearest = std::numeric_limits<double>::infinity();
-        for (const auto& plane : piece_planes)
-          nearest = std::min(nearest, std::abs(plane.head<3>().dot(x[static_cast<std::size_t>(k)]) - plane[3]));
-        if (nearest > best) {
-          best = nearest;
-          apex = k;
-        }
-      }
-      const Eigen::Vector3d& p = x[static_cast<std::size_t>(apex)];
-      const Plane& opposite = planes[static_cast<std::size_t>(apex)];
-      const double height = -opposite.distance(p);
+      const int k = apex[at(e)];
+      const Eigen::Vector3d& p = x[static_cast<std::size_t>(k)];
       ConeIntegrals integrals;
-      if (lm.node_inside[at(mesh.tets(e, apex))]) {
+      if (lm.node_inside[at(mesh.tets(e, k))]) {
         const double v = (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])) / 6.0;
         integrals.volume = v;
         integrals.moment = v * (0.25 * (x[0] + x[1] + x[2] + x[3]) - p);
       }
-      for (const Polygon& piece : pieces) {
-        integrals.add_cone(p, piece);
-        // The piece's shadow on the opposite face, seen from p.
-        Polygon shadow = piece;
-        for (int i = 0; i < shadow.size; ++i) {
-          const Eigen::Vector3d y = piece.v[static_cast<std::size_t>(i)] - p;
-          const double along = y.dot(opposite.normal);
-          shadow.v[static_cast<std::size_t>(i)] = along > 1e-300 ? Eigen::Vector3d(p + y * (height / along)) : p;
-        }
-        integrals.add_cone(p, shadow, -1.0);
+      for (Index c = offsets[at(e)]; c < offsets[at(e) + 1]; ++c) {
+        integrals.volume += sorted[at(c)]->volume;
+        integrals.moment += sorted[at(c)]->moment;
       }
       if (integrals.volume > 0.0) {
         out.volume[e] = integrals.volume;

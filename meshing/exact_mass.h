@@ -23,8 +23,10 @@ struct ElementSolid {
 /// from p minus the cone over its central projection P′ onto the face
 /// opposite p (the region of the element behind P seen from p), and the
 /// whole element counts once more if p is inside. The apex is the vertex
-/// farthest from the planes of the pieces, so it never lies on the surface;
-/// its inside flag is the exact one of the voxelisation.
+/// farthest from the planes of the triangles whose bounding boxes hold it,
+/// so it never lies on the surface; its inside flag is the exact one of the
+/// voxelisation. The pieces come from slicing each triangle along the
+/// lattice's planes (lattice_slicing.h): no search for candidate elements.
 ElementSolid clip_solid_to_elements(const LatticeMesh& lattice_mesh, const TriangleMesh& surface);
 
 /// Node masses (W&T eq. 5): element e holds m = ρ V_e / det(Fe_e) (ρ V_e if

@@ -228,4 +228,85 @@ void LatticeSlicer::overlaps(const BccLattice& lattice, const std::array<Eigen::
   out.resize(kept);
 }
 
+void LatticeSlicer::polygon_parts(const BccLattice& lattice, const Polygon& polygon, double tolerance,
+                                  std::vector<PolygonPart>& out) {
+  out.clear();
+  const double h = lattice.spacing();
+  polygons_.resize(1);
+  Face& first = polygons_[0];
+  first.size = 0;
+  for (int i = 0; i < polygon.size; ++i) push(first, (polygon.v[static_cast<std::size_t>(i)] - lattice.origin()) / h);
+  std::array<double, Face::kCapacity> d{};
+  for (const Family& family : kFamilies) {
+    // A polygon the family does not cut stays where it is; one it cuts is
+    // replaced by its lowest part, the others appended (and not looked at
+    // again for this family).
+    const std::size_t count = polygons_.size();
+    for (std::size_t index = 0; index < count; ++index) {
+      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+      {
+        const Face& piece = polygons_[index];
+        for (int i = 0; i < piece.size; ++i) {
+          const double s = family.s(piece.v[static_cast<std::size_t>(i)]);
+          lo = std::min(lo, s);
+          hi = std::max(hi, s);
+        }
+      }
+      double k = std::floor(lo + tolerance) + 1.0;
+      if (!(k < hi - tolerance)) continue;
+      Face piece = polygons_[index];
+      bool first_part = true;
+      for (;; k += 1.0) {
+        if (!(k < hi - tolerance)) {
+          polygons_.push_back(piece);
+          break;
+        }
+        // Sutherland–Hodgman to both sides at once.
+        Face below, above;
+        for (int i = 0; i < piece.size; ++i) {
+          const double di = family.s(piece.v[static_cast<std::size_t>(i)]) - k;
+          d[static_cast<std::size_t>(i)] = std::abs(di) <= tolerance ? 0.0 : di;
+        }
+        for (int i = 0; i < piece.size; ++i) {
+          const auto a = static_cast<std::size_t>(i), b = static_cast<std::size_t>((i + 1) % piece.size);
+          if (d[a] <= 0.0) push(below, piece.v[a]);
+          if (d[a] >= 0.0) push(above, piece.v[a]);
+          if ((d[a] < 0.0 && d[b] > 0.0) || (d[a] > 0.0 && d[b] < 0.0)) {
+            const Eigen::Vector3d x = crossing(piece.v[a], d[a], piece.v[b], d[b]);
+            push(below, x);
+            push(above, x);
+          }
+        }
+        if (below.size >= 3) {
+          if (first_part) {
+            polygons_[index] = below;
+            first_part = false;
+          } else {
+            polygons_.push_back(below);
+          }
+        }
+        if (above.size < 3) break;
+        piece = above;
+      }
+      if (first_part) polygons_[index].size = 0;  // nothing below the first plane: dropped
+    }
+  }
+  for (const Face& piece : polygons_) {
+    if (piece.size < 3 || piece.size > Polygon::kCapacity) continue;  // cannot happen: a part has at most 7 vertices
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (int i = 0; i < piece.size; ++i) mean += piece.v[static_cast<std::size_t>(i)];
+    // Twice the area vector: no area, no part.
+    Eigen::Vector3d area = Eigen::Vector3d::Zero();
+    for (int i = 1; i + 1 < piece.size; ++i)
+      area += (piece.v[static_cast<std::size_t>(i)] - piece.v[0]).cross(piece.v[static_cast<std::size_t>(i + 1)] - piece.v[0]);
+    if (area.squaredNorm() == 0.0) continue;
+    const std::optional<BccLattice::Key> key = lattice.locate(lattice.origin() + (h / piece.size) * mean);
+    if (!key) continue;
+    PolygonPart& part = out.emplace_back();
+    part.key = *key;
+    part.polygon.size = 0;
+    for (int i = 0; i < piece.size; ++i) part.polygon.push(lattice.origin() + h * piece.v[static_cast<std::size_t>(i)]);
+  }
+}
+
 }  // namespace goo

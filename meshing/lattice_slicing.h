@@ -13,8 +13,15 @@
 
 #include "core/types.h"
 #include "meshing/bcc_lattice.h"
+#include "meshing/convex_clip.h"
 
 namespace goo {
+
+/// A convex polygon's part in one lattice tetrahedron.
+struct PolygonPart {
+  BccLattice::Key key;
+  Polygon polygon;  ///< world coordinates, the input's orientation
+};
 
 /// The slicing, with its scratch space (reused from call to call: keep one
 /// per thread).
@@ -43,11 +50,21 @@ class LatticeSlicer {
   void overlaps(const BccLattice& lattice, const std::array<Eigen::Vector3d, 4>& x, double tolerance,
                 std::vector<std::pair<BccLattice::Key, double>>& out);
 
+  /// The parts of the convex polygon `polygon` (world coordinates, at most
+  /// 7 vertices: a clipped triangle's part in a tetrahedron is at most a
+  /// heptagon) in each lattice tetrahedron of the block, in a fixed order
+  /// (slicing order), parts of no area or outside the block dropped.
+  /// Vertices within `tolerance` (in units of the spacing) of a plane count
+  /// as on it.
+  void polygon_parts(const BccLattice& lattice, const Polygon& polygon, double tolerance,
+                     std::vector<PolygonPart>& out);
+
  private:
   void reserve(std::size_t more);
   std::vector<Piece> pool_;
   std::size_t pool_count_ = 0;
   std::vector<std::size_t> current_, next_;
+  std::vector<Face> polygons_;
 };
 
 }  // namespace goo
