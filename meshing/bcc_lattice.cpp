@@ -106,17 +106,36 @@ bool BccLattice::valid(Key tet) const {
 
 std::array<BccLattice::Key, 4> BccLattice::tet_nodes(Key tet) const {
   const Decoded d = decode(tet, cells_);
-  const int b = (d.axis + 1) % 3, c = (d.axis + 2) % 3;
-  std::array<Key, 4> nodes{};
-  nodes[0] = centre_key(d.cell);
-  nodes[1] = centre_key(d.cell + Eigen::Vector3i::Unit(d.axis));
+  return tet_nodes(d.cell, d.axis, d.edge);
+}
+
+std::array<Eigen::Vector3i, 4> BccLattice::tet_node_coordinates(const Eigen::Vector3i& cell, int axis, int edge) const {
+  const int b = (axis + 1) % 3, c = (axis + 2) % 3;
+  std::array<Eigen::Vector3i, 4> out;
+  out[0] = cell;
+  out[1] = cell + Eigen::Vector3i::Unit(axis);
   for (int k = 0; k < 2; ++k) {
-    const auto& uv = kFaceCorners[static_cast<std::size_t>((d.edge + k) % 4)];
-    nodes[static_cast<std::size_t>(2 + k)] = corner_key(
-        d.cell + Eigen::Vector3i::Unit(d.axis) + uv[0] * Eigen::Vector3i::Unit(b) + uv[1] * Eigen::Vector3i::Unit(c));
+    const auto& uv = kFaceCorners[static_cast<std::size_t>((edge + k) % 4)];
+    out[static_cast<std::size_t>(2 + k)] =
+        cell + Eigen::Vector3i::Unit(axis) + uv[0] * Eigen::Vector3i::Unit(b) + uv[1] * Eigen::Vector3i::Unit(c);
   }
-  if (swap_[static_cast<std::size_t>(tet % 12)]) std::swap(nodes[2], nodes[3]);
-  return nodes;
+  if (swap_[static_cast<std::size_t>(4 * axis + edge)]) std::swap(out[2], out[3]);
+  return out;
+}
+
+std::array<BccLattice::Key, 4> BccLattice::tet_nodes(const Eigen::Vector3i& cell, int axis, int edge) const {
+  const auto ijk = tet_node_coordinates(cell, axis, edge);
+  return {centre_key(ijk[0]), centre_key(ijk[1]), corner_key(ijk[2]), corner_key(ijk[3])};
+}
+
+std::array<Eigen::Vector3d, 4> BccLattice::tet_positions(const Eigen::Vector3i& cell, int axis, int edge) const {
+  const auto ijk = tet_node_coordinates(cell, axis, edge);
+  // position()'s expression, so the same bits.
+  auto at = [&](const Eigen::Vector3i& n, double shift) -> Eigen::Vector3d {
+    return origin_ + h_ * Eigen::Vector3d(static_cast<double>(Key{n.x()}) + shift, static_cast<double>(Key{n.y()}) + shift,
+                                          static_cast<double>(Key{n.z()}) + shift);
+  };
+  return {at(ijk[0], 0.5), at(ijk[1], 0.5), at(ijk[2], 0.0), at(ijk[3], 0.0)};
 }
 
 Eigen::Vector3i BccLattice::cell_of(const Eigen::Vector3d& p) const {

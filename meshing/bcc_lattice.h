@@ -44,6 +44,11 @@ class BccLattice {
   [[nodiscard]] bool valid(Key tet) const;
   /// Its four nodes, positively oriented: det[x1−x0, x2−x0, x3−x0] > 0.
   [[nodiscard]] std::array<Key, 4> tet_nodes(Key tet) const;
+  /// The same for the tetrahedron tet_key(cell, axis, edge), without
+  /// decoding a key.
+  [[nodiscard]] std::array<Key, 4> tet_nodes(const Eigen::Vector3i& cell, int axis, int edge) const;
+  /// Their positions (position() of each, bit for bit).
+  [[nodiscard]] std::array<Eigen::Vector3d, 4> tet_positions(const Eigen::Vector3i& cell, int axis, int edge) const;
   /// Dm⁻¹ of a tetrahedron: every lattice tetrahedron is one of 12 shapes.
   [[nodiscard]] const Eigen::Matrix3d& Dm_inv(Key tet) const { return Dm_inv_[static_cast<std::size_t>(tet % 12)]; }
   /// h³ / 12.
@@ -62,13 +67,10 @@ class BccLattice {
   /// The cell containing p (may be outside the block).
   [[nodiscard]] Eigen::Vector3i cell_of(const Eigen::Vector3d& p) const;
 
-  /// Calls f(key) for every valid tetrahedron of the block that may meet or
-  /// touch the box [lo, hi]: a tetrahedron of axis a keyed by its lower cell spans that
-  /// cell across a and reaches the next cell's centre along a, so its lower
-  /// cell is in [lo − 1, hi] along a and in [lo, hi] across. A superset:
-  /// filter by geometry.
+  /// Calls f(key, cell, axis, edge) for every valid tetrahedron of the
+  /// block that may meet or touch the box [lo, hi] (see below).
   template <class F>
-  void for_each_tet_near(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, F&& f) const {
+  void for_each_tet_shape_near(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, F&& f) const {
     // Widened by 1e-9 h so that a box touching a cell's boundary finds it.
     const Eigen::Vector3d slack = Eigen::Vector3d::Constant(1e-9 * h_);
     const Eigen::Vector3i lo_cell = cell_of(lo - slack).array().max(0);
@@ -80,8 +82,21 @@ class BccLattice {
       c1[axis] = std::min(c1[axis], cells_[axis] - 2);  // the upper cell is in the block: valid
       for (int k = c0.z(); k <= c1.z(); ++k)
         for (int j = c0.y(); j <= c1.y(); ++j)
-          for (int i = c0.x(); i <= c1.x(); ++i) f(tet_key({i, j, k}, axis, shape % 4));
+          for (int i = c0.x(); i <= c1.x(); ++i) {
+            const Eigen::Vector3i cell(i, j, k);
+            f(tet_key(cell, axis, shape % 4), cell, axis, shape % 4);
+          }
     }
+  }
+
+  /// Calls f(key) for every valid tetrahedron of the block that may meet or
+  /// touch the box [lo, hi]: a tetrahedron of axis a keyed by its lower cell spans that
+  /// cell across a and reaches the next cell's centre along a, so its lower
+  /// cell is in [lo − 1, hi] along a and in [lo, hi] across. A superset:
+  /// filter by geometry.
+  template <class F>
+  void for_each_tet_near(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, F&& f) const {
+    for_each_tet_shape_near(lo, hi, [&](Key key, const Eigen::Vector3i&, int, int) { f(key); });
   }
 
   /// Calls f(key) for every node of the block in the closed box [lo, hi]
@@ -101,6 +116,11 @@ class BccLattice {
   }
 
  private:
+  /// Lattice coordinates of tet_nodes(cell, axis, edge): cells of the two
+  /// centres, then the two corners.
+  [[nodiscard]] std::array<Eigen::Vector3i, 4> tet_node_coordinates(const Eigen::Vector3i& cell, int axis,
+                                                                    int edge) const;
+
   Eigen::Vector3d origin_;
   double h_;
   Eigen::Vector3i cells_;

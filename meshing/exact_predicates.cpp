@@ -2,6 +2,8 @@
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 
+#include <cmath>
+
 namespace goo::exact {
 namespace {
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
@@ -14,6 +16,22 @@ Kernel::Point_3 xyz(const Eigen::Vector3d& p) {
 }  // namespace
 
 int orient_xy(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  // Shewchuk's static filter (orient2d, 1997): in double, with c as the
+  // pivot, the sign is certain once |det| exceeds (3 + 16ε) ε (|l| + |r|)
+  // (ε = 2⁻⁵³; it bounds the rounding of the differences, the products and
+  // the subtraction). Products near underflow, overflow and NaN fail the
+  // test and go to CGAL's exact predicate, as does everything close to 0.
+  constexpr double kEpsilon = 0x1p-53;
+  constexpr double kBound = (3.0 + 16.0 * kEpsilon) * kEpsilon;
+  const double l = (a.x() - c.x()) * (b.y() - c.y());
+  const double r = (a.y() - c.y()) * (b.x() - c.x());
+  const double det = l - r;
+  const double sum = std::abs(l) + std::abs(r);
+  if (sum > 1e-200) {
+    const double bound = kBound * sum;
+    if (det > bound) return 1;
+    if (-det > bound) return -1;
+  }
   return static_cast<int>(CGAL::orientation(xy(a), xy(b), xy(c)));
 }
 

@@ -49,12 +49,6 @@ bool overlaps(const std::array<Eigen::Vector3d, 3>& tri, const std::array<Eigen:
   return true;
 }
 
-std::array<Eigen::Vector3d, 4> tet_positions(const BccLattice& lattice, BccLattice::Key tet) {
-  const auto nodes = lattice.tet_nodes(tet);
-  return {lattice.position(nodes[0]), lattice.position(nodes[1]), lattice.position(nodes[2]),
-          lattice.position(nodes[3])};
-}
-
 BccLattice block_around(const TriangleMesh& surface, double h) {
   if (!(h > 0.0) || !std::isfinite(h)) throw Error(fmt::format("lattice spacing must be positive, got {}", h));
   const Eigen::AlignedBox3d box = bounding_box(surface.vertices);
@@ -72,14 +66,21 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
   const std::vector<std::uint8_t> inside = voxelize(lattice, surface);
   std::vector<std::uint8_t> keep(static_cast<std::size_t>(lattice.num_tet_keys()), 0);
   // Tetrahedra with an inside node.
-  tbb::parallel_for(tbb::blocked_range<BccLattice::Key>(0, lattice.num_tet_keys(), 4096),
-                    [&](const tbb::blocked_range<BccLattice::Key>& r) {
-                      for (BccLattice::Key t = r.begin(); t != r.end(); ++t) {
-                        if (!lattice.valid(t)) continue;
-                        for (const auto n : lattice.tet_nodes(t))
-                          if (inside[static_cast<std::size_t>(n)]) keep[static_cast<std::size_t>(t)] = 1;
-                      }
-                    });
+  // Per layer of cells, each cell's twelve shapes (the key order), without
+  // decoding keys.
+  const Eigen::Vector3i cells = lattice.cells();
+  tbb::parallel_for(0, cells.z(), [&](int k) {
+    for (int j = 0; j < cells.y(); ++j)
+      for (int i = 0; i < cells.x(); ++i) {
+        const Eigen::Vector3i cell(i, j, k);
+        for (int shape = 0; shape < 12; ++shape) {
+          const int axis = shape / 4;
+          if (cell[axis] + 1 >= cells[axis]) continue;  // not valid: the upper centre is outside the block
+          for (const auto n : lattice.tet_nodes(cell, axis, shape % 4))
+            if (inside[static_cast<std::size_t>(n)]) keep[static_cast<std::size_t>(lattice.tet_key(cell, axis, shape % 4))] = 1;
+        }
+      }
+  });
   // Tetrahedra overlapping a triangle: in parallel over fixed chunks of
   // triangles, each listing what it found; `keep` is only read there (the
   // inside-node pass is complete) and set afterwards, so the result does not
@@ -97,9 +98,9 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
                                                   surface.vertices.row(surface.triangles(t, 2)).transpose()};
       const Eigen::Vector3d lo = tri[0].cwiseMin(tri[1]).cwiseMin(tri[2]),
                             hi = tri[0].cwiseMax(tri[1]).cwiseMax(tri[2]);
-      lattice.for_each_tet_near(lo, hi, [&](BccLattice::Key key) {
+      lattice.for_each_tet_shape_near(lo, hi, [&](BccLattice::Key key, const Eigen::Vector3i& cell, int axis, int edge) {
         if (keep[static_cast<std::size_t>(key)]) return;
-        const auto tet = tet_positions(lattice, key);
+        const auto tet = lattice.tet_positions(cell, axis, edge);
         Eigen::Vector3d tet_lo = tet[0], tet_hi = tet[0];
         for (const auto& p : tet) {
           tet_lo = tet_lo.cwiseMin(p);

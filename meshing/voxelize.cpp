@@ -87,10 +87,16 @@ std::vector<std::uint8_t> voxelize(const BccLattice& lattice, const TriangleMesh
         const Eigen::Vector3d& u1 = sign > 0 ? b : c;
         const Eigen::Vector3d& u2 = sign > 0 ? c : b;
         const Eigen::Vector3d lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
-        const int i0 = std::max(0, static_cast<int>(std::floor((lo.x() - o.x()) / h - grid.offset)));
-        const int i1 = std::min(grid.count.x() - 1, static_cast<int>(std::ceil((hi.x() - o.x()) / h - grid.offset)));
-        const int j0 = std::max(0, static_cast<int>(std::floor((lo.y() - o.y()) / h - grid.offset)));
-        const int j1 = std::min(grid.count.y() - 1, static_cast<int>(std::ceil((hi.y() - o.y()) / h - grid.offset)));
+        // The columns in the triangle's box, widened by 1e-7 h: far more than
+        // the rounding of these quotients, so a column on the box's edge (whose
+        // shifted ray may meet the triangle) is never left out.
+        constexpr double kMargin = 1e-7;
+        const int i0 = std::max(0, static_cast<int>(std::ceil((lo.x() - o.x()) / h - grid.offset - kMargin)));
+        const int i1 =
+            std::min(grid.count.x() - 1, static_cast<int>(std::floor((hi.x() - o.x()) / h - grid.offset + kMargin)));
+        const int j0 = std::max(0, static_cast<int>(std::ceil((lo.y() - o.y()) / h - grid.offset - kMargin)));
+        const int j1 =
+            std::min(grid.count.y() - 1, static_cast<int>(std::floor((hi.y() - o.y()) / h - grid.offset + kMargin)));
         const Eigen::Vector3d normal = (b - a).cross(c - a);
         const double extent = (hi - lo).norm() + lo.cwiseAbs().maxCoeff() + hi.cwiseAbs().maxCoeff();
         // z = a_z − (n_x (x − a_x) + n_y (y − a_y)) / n_z: its rounding error

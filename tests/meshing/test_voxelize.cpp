@@ -42,6 +42,46 @@ TEST(ExactPredicates, SignConventions) {
             0);
 }
 
+// orient_xy's floating-point filter never takes a rounded 0 for a sign, nor
+// a sign for an exact 0: points on a grid of 2⁻³⁰, a and b a few steps apart
+// on a line, c far along it, exactly on the line or nudged off it by one
+// step; against the exact integer determinant (the products fit in 128
+// bits). (That it never takes a wrong sign is checked against exact rational
+// arithmetic in test_clip_oracle.cpp.)
+__extension__ using Int128 = __int128;
+
+TEST(ExactPredicates, OrientXyIsExactNearCollinearity) {
+  std::mt19937_64 rng(11);
+  std::uniform_int_distribution<std::int64_t> coordinate(-(std::int64_t{1} << 40), std::int64_t{1} << 40);
+  std::uniform_int_distribution<std::int64_t> direction(-(std::int64_t{1} << 20), std::int64_t{1} << 20);
+  std::uniform_int_distribution<std::int64_t> step(1, 4), far(-(std::int64_t{1} << 20), std::int64_t{1} << 20);
+  std::uniform_int_distribution<std::int64_t> nudge(-1, 1);
+  const double unit = 0x1p-30;
+  int zero = 0, positive = 0, negative = 0, rounded_wrong = 0;
+  for (int trial = 0; trial < 200000; ++trial) {
+    // The determinant m (d × e) is below 2²²; the products' rounding about 2²⁷.
+    const std::int64_t ax = coordinate(rng), ay = coordinate(rng), dx = direction(rng), dy = direction(rng);
+    const std::int64_t m = step(rng), n = far(rng);
+    const std::int64_t bx = ax + m * dx, by = ay + m * dy;
+    const std::int64_t cx = ax + n * dx + (trial % 3 == 0 ? 0 : nudge(rng));
+    const std::int64_t cy = ay + n * dy + (trial % 3 == 0 ? 0 : nudge(rng));
+    const Int128 det = static_cast<Int128>(bx - ax) * (cy - ay) - static_cast<Int128>(by - ay) * (cx - ax);
+    const int expected = det > 0 ? 1 : det < 0 ? -1 : 0;
+    const auto point = [&](std::int64_t x, std::int64_t y) {
+      return Eigen::Vector3d(static_cast<double>(x) * unit, static_cast<double>(y) * unit, 0.0);
+    };
+    const Eigen::Vector3d pa = point(ax, ay), pb = point(bx, by), pc = point(cx, cy);
+    ASSERT_EQ(exact::orient_xy(pa, pb, pc), expected) << "trial " << trial;
+    (expected == 0 ? zero : expected > 0 ? positive : negative)++;
+    const double rounded = (pa.x() - pc.x()) * (pb.y() - pc.y()) - (pa.y() - pc.y()) * (pb.x() - pc.x());
+    rounded_wrong += (rounded > 0.0 ? 1 : rounded < 0.0 ? -1 : 0) != expected;
+  }
+  EXPECT_GT(zero, 1000);
+  EXPECT_GT(positive, 1000);
+  EXPECT_GT(negative, 1000);
+  EXPECT_GT(rounded_wrong, 1000);  // the cases are hard: plain rounding gets them wrong
+}
+
 TEST(Voxelize, LatticeAlignedCubeFollowsTheSymbolicTieBreakAtEveryNode) {
   // The cube [0, 1]³ with its vertices on lattice columns and its faces on
   // lattice planes: rays through vertices and edges, nodes on faces, edges
