@@ -51,101 +51,117 @@ Eigen::Vector3d crossing(const Eigen::Vector3d& p, double dp, const Eigen::Vecto
   return a + (b - a) * (da / (da - db));
 }
 
-/// The cut's points (each crossing twice, once per face of its edge).
-struct Cut {
-  static constexpr int kCapacity = 64;
-  std::array<Eigen::Vector3d, kCapacity> p;
-  int size = 0;
-  void push(const Eigen::Vector3d& x) {
-    if (size < kCapacity) p[static_cast<std::size_t>(size++)] = x;
-  }
-};
-
-void assign_face(Face& to, const Face& from) {
-  to.size = from.size;
-  std::copy(from.v.begin(), from.v.begin() + from.size, to.v.begin());
-}
-
 /// Splits `in` by the plane s = k into `below` (s ≤ k) and `above` (s ≥ k),
 /// each closed by the cut as a new face. Distances within `tolerance` count
-/// as on the plane; a face lying on it is dropped (the cut replaces it).
+/// as on the plane (such a vertex goes to both parts); a face lying on it is
+/// dropped (the cut replaces it). Each vertex's distance and each edge's
+/// crossing are computed once, for all the faces that share them.
 void split(const Piece& in, const Family& family, double k, double tolerance, Piece& below, Piece& above) {
-  below.size = above.size = 0;
-  Cut cut;
-  std::array<double, Face::kCapacity> d{};
-  for (int f = 0; f < in.size; ++f) {
-    const Face& face = in.faces[static_cast<std::size_t>(f)];
+  constexpr std::uint8_t kNone = 0xff;
+  below.num_vertices = above.num_vertices = below.num_faces = above.num_faces = 0;
+  std::array<double, Piece::kVertices> d;
+  std::array<std::uint8_t, Piece::kVertices> to_below, to_above;
+  // The cut's vertices, as their indices in both parts.
+  std::array<std::array<std::uint8_t, 2>, Piece::kVertices> cut;
+  int cut_size = 0;
+  auto add = [](Piece& piece, const Eigen::Vector3d& p) -> std::uint8_t {
+    if (piece.num_vertices == Piece::kVertices) return kNone;
+    piece.v[static_cast<std::size_t>(piece.num_vertices)] = p;
+    return static_cast<std::uint8_t>(piece.num_vertices++);
+  };
+  for (int i = 0; i < in.num_vertices; ++i) {
+    const auto at = static_cast<std::size_t>(i);
+    const double di = family.s(in.v[at]) - k;
+    d[at] = std::abs(di) <= tolerance ? 0.0 : di;
+    to_below[at] = d[at] <= 0.0 ? add(below, in.v[at]) : kNone;
+    to_above[at] = d[at] >= 0.0 ? add(above, in.v[at]) : kNone;
+    if (d[at] == 0.0 && cut_size < Piece::kVertices) cut[static_cast<std::size_t>(cut_size++)] = {to_below[at], to_above[at]};
+  }
+  // Crossings of edges, from their lower-index end: one point an edge.
+  struct Crossing {
+    std::uint8_t lo, hi, below, above;
+  };
+  std::array<Crossing, Piece::kVertices> crossings;
+  int num_crossings = 0;
+  auto crossing = [&](std::uint8_t i, std::uint8_t j) -> Crossing {
+    const std::uint8_t lo = std::min(i, j), hi = std::max(i, j);
+    for (int c = 0; c < num_crossings; ++c)
+      if (crossings[static_cast<std::size_t>(c)].lo == lo && crossings[static_cast<std::size_t>(c)].hi == hi)
+        return crossings[static_cast<std::size_t>(c)];
+    const double dl = d[lo], dh = d[hi];
+    const Eigen::Vector3d x = in.v[lo] + (in.v[hi] - in.v[lo]) * (dl / (dl - dh));
+    const Crossing made = {lo, hi, add(below, x), add(above, x)};
+    if (num_crossings < Piece::kVertices) crossings[static_cast<std::size_t>(num_crossings++)] = made;
+    if (cut_size < Piece::kVertices) cut[static_cast<std::size_t>(cut_size++)] = {made.below, made.above};
+    return made;
+  };
+  auto push = [](Piece& piece, std::uint8_t vertex) {
+    const auto f = static_cast<std::size_t>(piece.num_faces);
+    if (vertex != kNone && piece.face_size[f] < Piece::kFaceVertices) piece.face[f][piece.face_size[f]++] = vertex;
+  };
+  for (int f = 0; f < in.num_faces; ++f) {
+    const auto& face = in.face[static_cast<std::size_t>(f)];
+    const int n = in.face_size[static_cast<std::size_t>(f)];
     bool off = false;
-    for (int i = 0; i < face.size; ++i) {
-      const double di = family.s(face.v[static_cast<std::size_t>(i)]) - k;
-      d[static_cast<std::size_t>(i)] = std::abs(di) <= tolerance ? 0.0 : di;
-      off |= di != 0.0 && std::abs(di) > tolerance;
-    }
-    if (!off) {
-      for (int i = 0; i < face.size; ++i) cut.push(face.v[static_cast<std::size_t>(i)]);
-      continue;
-    }
-    Face& lower = below.faces[static_cast<std::size_t>(below.size)];
-    Face& upper = above.faces[static_cast<std::size_t>(above.size)];
-    lower.size = upper.size = 0;
-    for (int i = 0; i < face.size; ++i) {
-      const auto a = static_cast<std::size_t>(i), b = static_cast<std::size_t>((i + 1) % face.size);
-      if (d[a] <= 0.0) push(lower, face.v[a]);
-      if (d[a] >= 0.0) push(upper, face.v[a]);
-      if (d[a] == 0.0) cut.push(face.v[a]);
+    for (int i = 0; i < n; ++i) off |= d[face[static_cast<std::size_t>(i)]] != 0.0;
+    if (!off) continue;  // on the plane: the cut replaces it
+    if (below.num_faces == Piece::kFaces || above.num_faces == Piece::kFaces) break;
+    below.face_size[static_cast<std::size_t>(below.num_faces)] = 0;
+    above.face_size[static_cast<std::size_t>(above.num_faces)] = 0;
+    for (int i = 0; i < n; ++i) {
+      const std::uint8_t a = face[static_cast<std::size_t>(i)], b = face[static_cast<std::size_t>((i + 1) % n)];
+      if (d[a] <= 0.0) push(below, to_below[a]);
+      if (d[a] >= 0.0) push(above, to_above[a]);
       if ((d[a] < 0.0 && d[b] > 0.0) || (d[a] > 0.0 && d[b] < 0.0)) {
-        const Eigen::Vector3d x = crossing(face.v[a], d[a], face.v[b], d[b]);
-        push(lower, x);
-        push(upper, x);
-        cut.push(x);
+        const Crossing x = crossing(a, b);
+        push(below, x.below);
+        push(above, x.above);
       }
     }
-    if (lower.size >= 3 && below.size + 1 < Piece::kCapacity) ++below.size;
-    if (upper.size >= 3 && above.size + 1 < Piece::kCapacity) ++above.size;
+    if (below.face_size[static_cast<std::size_t>(below.num_faces)] >= 3) ++below.num_faces;
+    if (above.face_size[static_cast<std::size_t>(above.num_faces)] >= 3) ++above.num_faces;
   }
-  if (cut.size < 3) return;
-  // The cap: the cut's points counter-clockwise about ∇s (the outward normal
-  // of the part below), by a pseudo-angle (monotone in the angle, no
-  // trigonometry); equal points are adjacent after sorting and kept once.
+  if (cut_size < 3 || below.num_faces == 0 || above.num_faces == 0) return;
+  // The cap: the cut's vertices counter-clockwise about ∇s (the outward
+  // normal of the part below), by a pseudo-angle about their mean (monotone
+  // in the angle, no trigonometry).
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (int i = 0; i < cut.size; ++i) centre += cut.p[static_cast<std::size_t>(i)];
-  centre /= static_cast<double>(cut.size);
-  std::array<std::pair<double, int>, Cut::kCapacity> around;
-  for (int i = 0; i < cut.size; ++i) {
-    const Eigen::Vector3d r = cut.p[static_cast<std::size_t>(i)] - centre;
+  for (int i = 0; i < cut_size; ++i) centre += below.v[cut[static_cast<std::size_t>(i)][0]];
+  centre /= static_cast<double>(cut_size);
+  std::array<std::pair<double, int>, Piece::kVertices> around;
+  for (int i = 0; i < cut_size; ++i) {
+    const Eigen::Vector3d r = below.v[cut[static_cast<std::size_t>(i)][0]] - centre;
     const double x = r.dot(family.e1), y = r.dot(family.e2);
     const double norm = std::abs(x) + std::abs(y);
     const double t = norm > 0.0 ? y / norm : 0.0;  // in [−1, 1] along the diamond
     around[static_cast<std::size_t>(i)] = {x >= 0.0 ? t : (y >= 0.0 ? 2.0 - t : -2.0 - t), i};
   }
-  std::sort(around.begin(), around.begin() + cut.size);
-  Face cap;
-  for (int i = 0; i < cut.size; ++i) {
-    const Eigen::Vector3d& p = cut.p[static_cast<std::size_t>(around[static_cast<std::size_t>(i)].second)];
-    if (cap.size == 0 || p != cap.v[static_cast<std::size_t>(cap.size - 1)]) push(cap, p);
+  std::sort(around.begin(), around.begin() + cut_size);
+  if (below.num_faces < Piece::kFaces) {
+    const auto f = static_cast<std::size_t>(below.num_faces++);
+    below.face_size[f] = 0;
+    for (int i = 0; i < cut_size && below.face_size[f] < Piece::kFaceVertices; ++i)
+      below.face[f][below.face_size[f]++] = cut[static_cast<std::size_t>(around[static_cast<std::size_t>(i)].second)][0];
   }
-  if (cap.size >= 3 && cap.v[0] == cap.v[static_cast<std::size_t>(cap.size - 1)]) --cap.size;
-  if (cap.size < 3) return;
-  if (below.size > 0 && below.size < Piece::kCapacity) assign_face(below.faces[static_cast<std::size_t>(below.size++)], cap);
-  if (above.size > 0 && above.size < Piece::kCapacity) {
-    Face& reversed = above.faces[static_cast<std::size_t>(above.size++)];
-    reversed.size = cap.size;
-    for (int i = 0; i < cap.size; ++i)
-      reversed.v[static_cast<std::size_t>(i)] = cap.v[static_cast<std::size_t>(cap.size - 1 - i)];
+  if (above.num_faces < Piece::kFaces) {
+    const auto f = static_cast<std::size_t>(above.num_faces++);
+    above.face_size[f] = 0;
+    for (int i = cut_size - 1; i >= 0 && above.face_size[f] < Piece::kFaceVertices; --i)
+      above.face[f][above.face_size[f]++] = cut[static_cast<std::size_t>(around[static_cast<std::size_t>(i)].second)][1];
   }
 }
 
 /// Volume of a closed piece: Σ over faces of the cones from one vertex
 /// (divergence theorem; the faces through the apex add nothing).
 double volume(const Piece& piece) {
-  if (piece.size < 4) return 0.0;
-  const Eigen::Vector3d& apex = piece.faces[0].v[0];
+  if (piece.num_faces < 4) return 0.0;
+  const Eigen::Vector3d& apex = piece.v[0];
   double six_v = 0.0;
-  for (int f = 1; f < piece.size; ++f) {
-    const Face& face = piece.faces[static_cast<std::size_t>(f)];
-    const Eigen::Vector3d a = face.v[0] - apex;
-    for (int i = 1; i + 1 < face.size; ++i)
-      six_v += a.dot((face.v[static_cast<std::size_t>(i)] - apex).cross(face.v[static_cast<std::size_t>(i + 1)] - apex));
+  for (int f = 0; f < piece.num_faces; ++f) {
+    const auto& face = piece.face[static_cast<std::size_t>(f)];
+    const Eigen::Vector3d a = piece.v[face[0]] - apex;
+    for (int i = 1; i + 1 < piece.face_size[static_cast<std::size_t>(f)]; ++i)
+      six_v += a.dot((piece.v[face[static_cast<std::size_t>(i)]] - apex).cross(piece.v[face[static_cast<std::size_t>(i + 1)]] - apex));
   }
   return six_v / 6.0;
 }
@@ -167,11 +183,12 @@ void LatticeSlicer::overlaps(const BccLattice& lattice, const std::array<Eigen::
   pool_count_ = 0;
   reserve(1);
   Piece& tet = pool_[pool_count_++];
-  tet.size = 4;
+  tet.num_vertices = 4;
+  tet.num_faces = 4;
   for (std::size_t k = 0; k < 4; ++k) {
-    Face& face = tet.faces[k];
-    face.size = 3;
-    for (std::size_t i = 0; i < 3; ++i) face.v[i] = u[static_cast<std::size_t>(kTetFaces[k][i])];
+    tet.v[k] = u[k];
+    tet.face_size[k] = 3;
+    for (std::size_t i = 0; i < 3; ++i) tet.face[k][i] = static_cast<std::uint8_t>(kTetFaces[k][i]);
   }
   current_.assign(1, 0);
   for (const Family& family : kFamilies) {
@@ -182,12 +199,11 @@ void LatticeSlicer::overlaps(const BccLattice& lattice, const std::array<Eigen::
       std::size_t piece = first;
       double lo = std::numeric_limits<double>::infinity(), hi = -lo;
       const Piece& in = pool_[piece];
-      for (int f = 0; f < in.size; ++f)
-        for (int i = 0; i < in.faces[static_cast<std::size_t>(f)].size; ++i) {
-          const double s = family.s(in.faces[static_cast<std::size_t>(f)].v[static_cast<std::size_t>(i)]);
-          lo = std::min(lo, s);
-          hi = std::max(hi, s);
-        }
+      for (int i = 0; i < in.num_vertices; ++i) {
+        const double s = family.s(in.v[static_cast<std::size_t>(i)]);
+        lo = std::min(lo, s);
+        hi = std::max(hi, s);
+      }
       // The part above the plane k reaches from k to hi: the next plane is k + 1.
       for (double k = std::floor(lo + tolerance) + 1.0;; k += 1.0) {
         if (!(k < hi - tolerance)) {
@@ -197,8 +213,8 @@ void LatticeSlicer::overlaps(const BccLattice& lattice, const std::array<Eigen::
         reserve(2);  // before taking references into the pool
         const std::size_t below = pool_count_++, above = pool_count_++;
         split(pool_[piece], family, k, tolerance, pool_[below], pool_[above]);
-        if (pool_[below].size >= 4) next_.push_back(below);
-        if (pool_[above].size < 4) break;
+        if (pool_[below].num_faces >= 4) next_.push_back(below);
+        if (pool_[above].num_faces < 4) break;
         piece = above;
       }
     }
@@ -210,11 +226,8 @@ void LatticeSlicer::overlaps(const BccLattice& lattice, const std::array<Eigen::
     const double v = volume(piece);
     if (!(v > 0.0)) continue;
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    int n = 0;
-    for (int f = 0; f < piece.size; ++f)
-      for (int i = 0; i < piece.faces[static_cast<std::size_t>(f)].size; ++i, ++n)
-        mean += piece.faces[static_cast<std::size_t>(f)].v[static_cast<std::size_t>(i)];
-    const std::optional<BccLattice::Key> key = lattice.locate(lattice.origin() + (h / n) * mean);
+    for (int i = 0; i < piece.num_vertices; ++i) mean += piece.v[static_cast<std::size_t>(i)];
+    const std::optional<BccLattice::Key> key = lattice.locate(lattice.origin() + (h / piece.num_vertices) * mean);
     if (key) out.emplace_back(*key, v * h3);
   }
   std::sort(out.begin(), out.end());

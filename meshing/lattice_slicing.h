@@ -8,6 +8,7 @@
 // lattice tetrahedron, with no search for candidates and no pair of
 // tetrahedra clipped against each other.
 #include <array>
+#include <cstdint>
 #include <utility>
 #include <vector>
 
@@ -27,18 +28,24 @@ struct PolygonPart {
 /// per thread).
 class LatticeSlicer {
  public:
-  /// A face: a convex polygon. A piece is the intersection of a tetrahedron
-  /// (4 faces) and a slab of each family sliced so far (2 faces each), so it
-  /// has at most 16 faces, and a face at most 15 vertices.
+  /// A convex polygon, for the polygons' slicing: a clipped triangle's part
+  /// of the slabs of every family has at most 3 + 2 × 6 vertices.
   struct Face {
     static constexpr int kCapacity = 16;
     std::array<Eigen::Vector3d, kCapacity> v;
     int size = 0;
   };
+  /// A convex polyhedron: its vertices once each, and its faces as lists of
+  /// vertex indices, counter-clockwise seen from outside. A piece is the
+  /// intersection of a tetrahedron (4 faces) and one slab of each family
+  /// sliced so far (2 faces each): at most 16 faces, so at most 28 vertices
+  /// (2F − 4) and 15 vertices a face.
   struct Piece {
-    static constexpr int kCapacity = 16;
-    std::array<Face, kCapacity> faces;
-    int size = 0;
+    static constexpr int kVertices = 32, kFaces = 16, kFaceVertices = 16;
+    std::array<Eigen::Vector3d, kVertices> v;
+    std::array<std::array<std::uint8_t, kFaceVertices>, kFaces> face;
+    std::array<std::uint8_t, kFaces> face_size;
+    int num_vertices = 0, num_faces = 0;
   };
 
   /// The volume of the positively oriented tetrahedron x in each lattice
