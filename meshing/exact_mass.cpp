@@ -79,7 +79,12 @@ struct PartIntegrals {
 
 ConeIntegrals part_integrals(const std::array<Eigen::Vector3d, 4>& x, int apex, const Polygon& piece) {
   const Eigen::Vector3d& p = x[static_cast<std::size_t>(apex)];
-  const Plane opposite = tet_planes(x)[static_cast<std::size_t>(apex)];
+  // tet_planes(x)[apex], alone.
+  const auto& face = kTetFaces[apex];
+  const Eigen::Vector3d& a = x[static_cast<std::size_t>(face[0])];
+  const Eigen::Vector3d normal =
+      (x[static_cast<std::size_t>(face[1])] - a).cross(x[static_cast<std::size_t>(face[2])] - a).normalized();
+  const Plane opposite{normal, normal.dot(a)};
   const double height = -opposite.distance(p);
   ConeIntegrals integrals;
   integrals.add_cone(p, piece);
