@@ -6,17 +6,6 @@
 namespace goo {
 namespace {
 
-/// The crossing of edge pq with the plane, computed from the endpoints in a
-/// fixed (lexicographic) order, so the faces on both sides of an edge get
-/// the same point, bit for bit.
-Eigen::Vector3d crossing(const Eigen::Vector3d& p, double dp, const Eigen::Vector3d& q, double dq) {
-  const bool swap = std::lexicographical_compare(q.data(), q.data() + 3, p.data(), p.data() + 3);
-  const Eigen::Vector3d& a = swap ? q : p;
-  const Eigen::Vector3d& b = swap ? p : q;
-  const double da = swap ? dq : dp, db = swap ? dp : dq;
-  return a + (b - a) * (da / (da - db));
-}
-
 double snapped(const Plane& plane, const Eigen::Vector3d& p, double tolerance) {
   const double d = plane.distance(p);
   return std::abs(d) <= tolerance ? 0.0 : d;
@@ -48,7 +37,7 @@ Polygon clip_snapped(const Polygon& polygon, const Plane& plane, double toleranc
       if (d[a] == 0.0 && on_plane) on_plane->push_back(polygon.v[a]);
     }
     if ((d[a] < 0.0 && d[b] > 0.0) || (d[a] > 0.0 && d[b] < 0.0)) {
-      const Eigen::Vector3d x = crossing(polygon.v[a], d[a], polygon.v[b], d[b]);
+      const Eigen::Vector3d x = edge_crossing(polygon.v[a], d[a], polygon.v[b], d[b]);
       out.push(x);
       if (on_plane) on_plane->push_back(x);
     }
@@ -58,6 +47,14 @@ Polygon clip_snapped(const Polygon& polygon, const Plane& plane, double toleranc
 }
 
 }  // namespace
+
+Eigen::Vector3d edge_crossing(const Eigen::Vector3d& p, double dp, const Eigen::Vector3d& q, double dq) {
+  const bool swap = std::lexicographical_compare(q.data(), q.data() + 3, p.data(), p.data() + 3);
+  const Eigen::Vector3d& a = swap ? q : p;
+  const Eigen::Vector3d& b = swap ? p : q;
+  const double da = swap ? dq : dp, db = swap ? dp : dq;
+  return a + (b - a) * (da / (da - db));
+}
 
 std::array<Plane, 4> tet_planes(const std::array<Eigen::Vector3d, 4>& x) {
   std::array<Plane, 4> planes;

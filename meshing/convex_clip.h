@@ -37,6 +37,12 @@ std::array<Plane, 4> tet_planes(const std::array<Eigen::Vector3d, 4>& x);
 /// tetrahedron, counter-clockwise seen from outside.
 inline constexpr int kTetFaces[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
 
+/// The crossing of edge pq with a plane, given the endpoints' signed
+/// distances dp and dq of opposite signs; computed from the endpoints in a
+/// fixed (lexicographic) order, so the two faces sharing an edge get the
+/// same point, bit for bit.
+Eigen::Vector3d edge_crossing(const Eigen::Vector3d& p, double dp, const Eigen::Vector3d& q, double dq);
+
 /// The part of `polygon` with distance ≤ 0 (vertex order kept).
 Polygon clip(const Polygon& polygon, const Plane& plane);
 

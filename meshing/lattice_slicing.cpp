@@ -40,15 +40,16 @@ void push(Face& face, const Eigen::Vector3d& p) {
   if (face.size < Face::kCapacity) face.v[static_cast<std::size_t>(face.size++)] = p;
 }
 
-/// The crossing of edge pq with the plane, from the endpoints in a fixed
-/// (lexicographic) order, so the two faces sharing an edge get the same
-/// point, bit for bit, and the cap's duplicates are found by equality.
-Eigen::Vector3d crossing(const Eigen::Vector3d& p, double dp, const Eigen::Vector3d& q, double dq) {
-  const bool swap = std::lexicographical_compare(q.data(), q.data() + 3, p.data(), p.data() + 3);
-  const Eigen::Vector3d& a = swap ? q : p;
-  const Eigen::Vector3d& b = swap ? p : q;
-  const double da = swap ? dq : dp, db = swap ? dp : dq;
-  return a + (b - a) * (da / (da - db));
+/// The least and greatest s over points [begin, end).
+template <class It>
+std::pair<double, double> extent(const Family& family, It begin, It end) {
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (It p = begin; p != end; ++p) {
+    const double s = family.s(*p);
+    lo = std::min(lo, s);
+    hi = std::max(hi, s);
+  }
+  return {lo, hi};
 }
 
 /// Splits `in` by the plane s = k into `below` (s ≤ k) and `above` (s ≥ k),
@@ -197,13 +198,8 @@ void LatticeSlicer::overlaps(const BccLattice& lattice, const std::array<Eigen::
       // Slice at each plane of the family inside the piece, lowest first:
       // the part below is done with this family, the part above goes on.
       std::size_t piece = first;
-      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
       const Piece& in = pool_[piece];
-      for (int i = 0; i < in.num_vertices; ++i) {
-        const double s = family.s(in.v[static_cast<std::size_t>(i)]);
-        lo = std::min(lo, s);
-        hi = std::max(hi, s);
-      }
+      const auto [lo, hi] = extent(family, in.v.begin(), in.v.begin() + in.num_vertices);
       // The part above the plane k reaches from k to hi: the next plane is k + 1.
       for (double k = std::floor(lo + tolerance) + 1.0;; k += 1.0) {
         if (!(k < hi - tolerance)) {
@@ -256,15 +252,8 @@ void LatticeSlicer::polygon_parts(const BccLattice& lattice, const Polygon& poly
     // again for this family).
     const std::size_t count = polygons_.size();
     for (std::size_t index = 0; index < count; ++index) {
-      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-      {
-        const Face& piece = polygons_[index];
-        for (int i = 0; i < piece.size; ++i) {
-          const double s = family.s(piece.v[static_cast<std::size_t>(i)]);
-          lo = std::min(lo, s);
-          hi = std::max(hi, s);
-        }
-      }
+      const auto [lo, hi] =
+          extent(family, polygons_[index].v.begin(), polygons_[index].v.begin() + polygons_[index].size);
       double k = std::floor(lo + tolerance) + 1.0;
       if (!(k < hi - tolerance)) continue;
       Face piece = polygons_[index];
@@ -285,7 +274,7 @@ void LatticeSlicer::polygon_parts(const BccLattice& lattice, const Polygon& poly
           if (d[a] <= 0.0) push(below, piece.v[a]);
           if (d[a] >= 0.0) push(above, piece.v[a]);
           if ((d[a] < 0.0 && d[b] > 0.0) || (d[a] > 0.0 && d[b] < 0.0)) {
-            const Eigen::Vector3d x = crossing(piece.v[a], d[a], piece.v[b], d[b]);
+            const Eigen::Vector3d x = edge_crossing(piece.v[a], d[a], piece.v[b], d[b]);
             push(below, x);
             push(above, x);
           }
