@@ -36,6 +36,23 @@ void quarter_node_sums(const NodeIncidence& incidence, const Eigen::VectorXd& pe
   });
 }
 
+/// out_n = Σ_{corners (e, k) of n} scale_e G_e.col(k), in the incidence's
+/// fixed order: gather_to_nodes of the matrices scale_e G_e (the same
+/// products, summed in the same order: the same bits) without storing them.
+void gather_scaled_to_nodes(const NodeIncidence& incidence, const std::vector<Matrix34>& G, const Eigen::VectorXd& scale,
+                            Points& out) {
+  const auto nn = static_cast<Index>(incidence.offsets.size() - 1);
+  out.resize(nn, 3);
+  for_each_index(nn, [&](Index n) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (Index c = incidence.offsets[at(n)]; c < incidence.offsets[at(n) + 1]; ++c) {
+      const Index corner = incidence.corners[at(c)];
+      sum += scale[corner / 4] * G[at(corner / 4)].col(corner % 4);
+    }
+    out.row(n) = sum.transpose();
+  });
+}
+
 /// ∂V/∂x of a tetrahedron's four corners (columns), and V = det(Ds) / 6.
 double volume_gradient(const Eigen::Vector3d& x0, const Eigen::Vector3d& x1, const Eigen::Vector3d& x2,
                        const Eigen::Vector3d& x3, Matrix34& g) {
@@ -169,13 +186,13 @@ void VolumeProjection::weighted_volumes(const Body& body, const Points& position
 // s_e = Σ_k ∂V_e/∂x_k · y_{n_k} and (Aλ)_i = ¼ Σ_{e∋i} s_e.
 void VolumeProjection::transpose_product(const Body& body, const Eigen::VectorXd& lambda, Points& out) {
   const Index ne = body.num_elements();
-  weighted_.resize(at(ne));
+  element_lambda_.resize(ne);
   for_each_index(ne, [&](Index e) {
     double s = 0.0;
     for (int k = 0; k < 4; ++k) s += lambda[body.tets(e, k)];
-    weighted_[at(e)] = 0.25 * s * gradient_[at(e)];
+    element_lambda_[e] = 0.25 * s;
   });
-  gather_to_nodes(body.incidence, weighted_, out);
+  gather_scaled_to_nodes(body.incidence, gradient_, element_lambda_, out);
 }
 
 void VolumeProjection::move(const Body& body, const Eigen::VectorXd& lambda) {

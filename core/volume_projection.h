@@ -154,7 +154,7 @@ class VolumeProjection {
   VolumeProjectionSettings settings_;
   // Work arrays, kept across steps.
   std::vector<Matrix34> gradient_;  ///< ∂V_e/∂x of each element's four nodes
-  std::vector<Matrix34> weighted_;  ///< Λ_e ∂V_e/∂x
+  Eigen::VectorXd element_lambda_;  ///< Λ_e = ¼ Σ_k λ_{n_k}
   Eigen::VectorXd volume_, rest_, element_sum_, inverse_mass_, node_rest_, diagonal_;
   Eigen::VectorXd weight_;  ///< per element, the share of it the constraints count (φ_e: its material)
   void weights(const Body& body);
