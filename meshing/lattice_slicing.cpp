@@ -40,6 +40,12 @@ void push(Face& face, const Eigen::Vector3d& p) {
   if (face.size < Face::kCapacity) face.v[static_cast<std::size_t>(face.size++)] = p;
 }
 
+/// The block's range of s: u lies in [0, cells] along each axis.
+std::pair<double, double> block_range(const Family& family, const Eigen::Vector3i& cells) {
+  const auto ca = static_cast<double>(cells[family.a]), cb = static_cast<double>(cells[family.b]);
+  return family.sign > 0.0 ? std::pair{0.0, ca + cb} : std::pair{-cb, ca};
+}
+
 /// The least and greatest s over points [begin, end).
 template <class It>
 std::pair<double, double> extent(const Family& family, It begin, It end) {
@@ -194,14 +200,25 @@ void LatticeSlicer::overlaps(const BccLattice& lattice, const std::array<Eigen::
   current_.assign(1, 0);
   for (const Family& family : kFamilies) {
     next_.clear();
+    const auto [s_min, s_max] = block_range(family, lattice.cells());
     for (const std::size_t first : current_) {
       // Slice at each plane of the family inside the piece, lowest first:
       // the part below is done with this family, the part above goes on.
+      // Parts outside the block's range of s are dropped (so an element
+      // reaching far out costs no more than the block), and so is a piece
+      // that is not finite.
       std::size_t piece = first;
       const Piece& in = pool_[piece];
       const auto [lo, hi] = extent(family, in.v.begin(), in.v.begin() + in.num_vertices);
+      if (!std::isfinite(lo) || !std::isfinite(hi) || hi <= s_min + tolerance || lo >= s_max - tolerance) continue;
+      double k = std::floor(lo + tolerance) + 1.0;
+      bool below_outside = false;
+      if (k <= s_min) {
+        k = s_min;
+        below_outside = true;
+      }
       // The part above the plane k reaches from k to hi: the next plane is k + 1.
-      for (double k = std::floor(lo + tolerance) + 1.0;; k += 1.0) {
+      for (;; k += 1.0) {
         if (!(k < hi - tolerance)) {
           next_.push_back(piece);
           break;
@@ -209,8 +226,9 @@ void LatticeSlicer::overlaps(const BccLattice& lattice, const std::array<Eigen::
         reserve(2);  // before taking references into the pool
         const std::size_t below = pool_count_++, above = pool_count_++;
         split(pool_[piece], family, k, tolerance, pool_[below], pool_[above]);
-        if (pool_[below].num_faces >= 4) next_.push_back(below);
-        if (pool_[above].num_faces < 4) break;
+        if (pool_[below].num_faces >= 4 && !below_outside) next_.push_back(below);
+        below_outside = false;
+        if (k >= s_max || pool_[above].num_faces < 4) break;  // above s_max: outside the block
         piece = above;
       }
     }
@@ -251,10 +269,22 @@ void LatticeSlicer::polygon_parts(const BccLattice& lattice, const Polygon& poly
     // replaced by its lowest part, the others appended (and not looked at
     // again for this family).
     const std::size_t count = polygons_.size();
+    const auto [s_min, s_max] = block_range(family, lattice.cells());
     for (std::size_t index = 0; index < count; ++index) {
+      if (polygons_[index].size == 0) continue;
       const auto [lo, hi] =
           extent(family, polygons_[index].v.begin(), polygons_[index].v.begin() + polygons_[index].size);
+      // Outside the block's range of s, or not finite: dropped.
+      if (!std::isfinite(lo) || !std::isfinite(hi) || hi <= s_min + tolerance || lo >= s_max - tolerance) {
+        polygons_[index].size = 0;
+        continue;
+      }
       double k = std::floor(lo + tolerance) + 1.0;
+      bool below_outside = false;
+      if (k <= s_min) {
+        k = s_min;
+        below_outside = true;
+      }
       if (!(k < hi - tolerance)) continue;
       Face piece = polygons_[index];
       bool first_part = true;
@@ -279,7 +309,7 @@ void LatticeSlicer::polygon_parts(const BccLattice& lattice, const Polygon& poly
             push(above, x);
           }
         }
-        if (below.size >= 3) {
+        if (below.size >= 3 && !below_outside) {
           if (first_part) {
             polygons_[index] = below;
             first_part = false;
@@ -287,7 +317,8 @@ void LatticeSlicer::polygon_parts(const BccLattice& lattice, const Polygon& poly
             polygons_.push_back(below);
           }
         }
-        if (above.size < 3) break;
+        below_outside = false;
+        if (k >= s_max || above.size < 3) break;  // above s_max: outside the block
         piece = above;
       }
       if (first_part) polygons_[index].size = 0;  // nothing below the first plane: dropped

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <limits>
 #include <map>
 #include <random>
 
@@ -132,6 +134,50 @@ TEST(LatticeSlicing, ATetrahedronOnTheLatticePlanesIsWholeParts) {
   slicer.overlaps(lattice, big, 1e-12, parts);
   ASSERT_EQ(parts.size(), 8U);
   for (const auto& [k, v] : parts) EXPECT_NEAR(v, lattice.tet_volume(), 1e-14) << "key " << k;
+}
+
+// A tetrahedron reaching a million spacings out of the block costs no more
+// than the block: its parts are the block's share (the pairwise clip's),
+// found without slicing the space outside. A tetrahedron or a triangle
+// that is not finite has no parts, and the slicing ends.
+TEST(LatticeSlicing, PartsOutsideTheBlockAreDroppedAndNonFiniteInputHasNone) {
+  const double h = 0.5;
+  const BccLattice lattice(Eigen::Vector3d(0.3, -0.2, 0.1), h, Eigen::Vector3i(4, 5, 6));
+  LatticeSlicer slicer;
+  Parts parts;
+  const Eigen::Vector3d inside = lattice.origin() + Eigen::Vector3d(1.1, 1.3, 1.7);
+  const double far = 1e6 * h;
+  Tet x = {inside, inside + Eigen::Vector3d(far, 0.1 * far, 0.0), inside + Eigen::Vector3d(0.0, far, 0.2 * far),
+           inside + Eigen::Vector3d(0.1 * far, 0.0, far)};
+  if (signed_volume(x) < 0.0) std::swap(x[2], x[3]);
+  slicer.overlaps(lattice, x, 1e-12, parts);
+  const std::map<BccLattice::Key, double> expected = clipped_pairwise(lattice, x);
+  // The huge tetrahedron's own size sets the round-off of its parts: its
+  // faces' planes are computed from vertices 1e6 h away.
+  const double tol = 1e-6 * lattice.tet_volume();
+  ASSERT_FALSE(expected.empty());
+  for (const auto& [key, v] : parts) {
+    const auto it = expected.find(key);
+    EXPECT_NEAR(v, it == expected.end() ? 0.0 : it->second, tol) << "key " << key;
+  }
+  for (const auto& [key, v] : expected)
+    if (v > tol) {
+      EXPECT_TRUE(std::any_of(parts.begin(), parts.end(), [&](const auto& p) { return p.first == key; })) << key;
+    }
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  for (const double bad : {nan, inf, -inf}) {
+    Tet y = x;
+    y[1].x() = bad;
+    slicer.overlaps(lattice, y, 1e-12, parts);
+    EXPECT_TRUE(parts.empty());
+    Polygon triangle;
+    for (const Eigen::Vector3d& p : {inside, Eigen::Vector3d(inside + Eigen::Vector3d(bad, 0.1, 0.0)),
+                                     Eigen::Vector3d(inside + Eigen::Vector3d(0.0, 0.3, 0.1))})
+      triangle.push(p);
+    std::vector<PolygonPart> polygon_parts;
+    slicer.polygon_parts(lattice, triangle, 1e-12, polygon_parts);
+    EXPECT_TRUE(polygon_parts.empty());
+  }
 }
 
 // Moving the tetrahedron by a lattice vector moves every part to the same
