@@ -13,8 +13,7 @@ void Damping::freeze(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
                      const std::vector<Eigen::Matrix3d>& Fp_inv) {
   const Index ne = body.num_elements();
   Fe_ = &Fe;
-  A_.resize(at(ne));
-  scale_.resize(at(ne));
+  frozen_elements_ = at(ne);
   // Lanes past the last element stay zero (their forces are never read).
   blocks_.resize(at((ne + kDampingLanes - 1) / kDampingLanes));
   if (!blocks_.empty()) blocks_.back() = DampingBlock{};
@@ -22,22 +21,21 @@ void Damping::freeze(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
     for (Index e = range.begin(); e != range.end(); ++e) {
       const Eigen::Matrix3d& Q = Fp_inv[at(e)];
-      A_[at(e)] = body.Dm_inv[at(e)] * Q;
-      scale_[at(e)] = 2.0 * beta * body.rest_volumes[e] / Q.determinant();  // 2β W det Fp
+      const Eigen::Matrix3d A = body.Dm_inv[at(e)] * Q;
       DampingBlock& block = blocks_[at(e / kDampingLanes)];
       const int lane = static_cast<int>(e % kDampingLanes);
       for (int k = 0; k < 9; ++k) {
         block.G[k][lane] = Fe[at(e)].data()[k];
-        block.A[k][lane] = A_[at(e)].data()[k];
+        block.A[k][lane] = A.data()[k];
       }
-      block.scale[lane] = scale_[at(e)];
+      block.scale[lane] = 2.0 * beta * body.rest_volumes[e] / Q.determinant();  // 2β W det Fp
     }
   });
 }
 
 void Damping::check_frozen(const Body& body) const {
   const auto ne = at(body.num_elements());
-  if (Fe_ == nullptr || Fe_->size() != ne || A_.size() != ne)
+  if (Fe_ == nullptr || Fe_->size() != ne || frozen_elements_ != ne)
     throw Error("damping: applied to a body it was not frozen for (Damping::freeze after every force evaluation)");
 }
 
@@ -89,12 +87,16 @@ void Damping::diagonal_blocks(const Body& body, std::vector<Eigen::Matrix3d>& ou
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
     for (Index e = range.begin(); e != range.end(); ++e) {
       const Eigen::Matrix3d& G = Fe[at(e)];
-      const double scale = 0.5 * scale_[at(e)];  // β W det Fp (halving a power of two: exact)
+      const DampingBlock& frozen = blocks_[at(e / kDampingLanes)];
+      const auto lane = static_cast<std::size_t>(e % kDampingLanes);
+      const double scale = 0.5 * frozen.scale[lane];  // β W det Fp (halving a power of two: exact)
+      Eigen::Matrix3d A;
+      for (std::size_t k = 0; k < 9; ++k) A.data()[k] = frozen.A[k][lane];
       // Ḟe = Σ_k v_k w_kᵀ with w_k = Fp⁻ᵀ g_k, the columns of Aᵀ (g_k node
       // k's shape-function gradient, rows of Dm⁻¹, g_0 = −Σ): apply's force
       // on node k is −2 W det(Fp) β Fe sym(Feᵀ Ḟe) w_k, whose derivative by
       // v_k is the block below, negated.
-      const Eigen::Matrix3d W = A_[at(e)].transpose();  // columns w_1..w_3
+      const Eigen::Matrix3d W = A.transpose();  // columns w_1..w_3
       const Eigen::Matrix3d GGt = G * G.transpose();
       auto& blocks = element_blocks_[at(e)];
       for (int k = 0; k < 4; ++k) {

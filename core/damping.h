@@ -51,9 +51,10 @@ class Damping {
   void check_frozen(const Body& body) const;
   std::vector<Matrix34> element_forces_;
   const std::vector<Eigen::Matrix3d>* Fe_ = nullptr;  ///< as frozen
-  std::vector<Eigen::Matrix3d> A_;                    ///< Dm⁻¹ Fp⁻¹ per element, as frozen
-  std::vector<double> scale_;                         ///< 2β W det Fp per element, as frozen
-  std::vector<DampingBlock> blocks_;                  ///< Fe, A and the scale, eight elements a block
+  std::size_t frozen_elements_ = 0;                   ///< elements of the body frozen for
+  /// Fe, A = Dm⁻¹ Fp⁻¹ and the scale 2β W det Fp as frozen, eight elements a
+  /// block (the one copy: diagonal_blocks reads A and the scale from here).
+  std::vector<DampingBlock> blocks_;
   std::vector<std::array<Eigen::Matrix3d, 4>> element_blocks_;
 };
 
