@@ -1,5 +1,6 @@
 #include "core/damping.h"
 #include "core/error.h"
+#include "core/node_sums.h"
 #include "core/parallel.h"
 
 #include <tbb/blocked_range.h>
@@ -106,20 +107,13 @@ void Damping::diagonal_blocks(const Body& body, std::vector<Eigen::Matrix3d>& ou
       }
     }
   });
-  const auto& incidence = body.incidence;
-  const auto num_nodes = static_cast<Index>(incidence.offsets.size() - 1);
-  out.resize(at(num_nodes));
-  tbb::parallel_for(tbb::blocked_range<Index>(0, num_nodes, kParallelGrain),
-                    [&](const tbb::blocked_range<Index>& range) {
-                      for (Index n = range.begin(); n != range.end(); ++n) {
-                        Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
-                        for (Index c = incidence.offsets[at(n)]; c < incidence.offsets[at(n) + 1]; ++c) {
-                          const Index corner = incidence.corners[at(c)];
-                          sum += element_blocks_[at(corner / 4)][static_cast<std::size_t>(corner % 4)];
-                        }
-                        out[at(n)] = sum;
-                      }
-                    });
+  out.resize(body.incidence.offsets.size() - 1);
+  sum_over_corners(
+      body.incidence, Eigen::Matrix3d::Zero().eval(),
+      [&](Index corner) -> const Eigen::Matrix3d& {
+        return element_blocks_[at(corner / 4)][static_cast<std::size_t>(corner % 4)];
+      },
+      [&](Index n, const Eigen::Matrix3d& sum) { out[at(n)] = sum; });
 }
 
 double max_strain_rate(const Body& body, const Points& v) {

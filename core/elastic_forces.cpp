@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "core/force_batch.h"
+#include "core/node_sums.h"
 #include "core/plasticity.h"
 #include "core/surface_geometry.h"
 
@@ -18,19 +19,11 @@ Eigen::Matrix3d deformation_gradient(const Body& body, const Points& x, Index e)
 }
 
 void gather_to_nodes(const NodeIncidence& incidence, const std::vector<Matrix34>& per_element, Points& out) {
-  const auto num_nodes = static_cast<Index>(incidence.offsets.size() - 1);
-  out.resize(num_nodes, 3);
-  tbb::parallel_for(tbb::blocked_range<Index>(0, num_nodes, kParallelGrain),
-                    [&](const tbb::blocked_range<Index>& range) {
-                      for (Index n = range.begin(); n != range.end(); ++n) {
-                        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-                        for (Index c = incidence.offsets[at(n)]; c < incidence.offsets[at(n) + 1]; ++c) {
-                          const Index corner = incidence.corners[at(c)];
-                          sum += per_element[at(corner / 4)].col(corner % 4);
-                        }
-                        out.row(n) = sum.transpose();
-                      }
-                    });
+  out.resize(static_cast<Index>(incidence.offsets.size() - 1), 3);
+  sum_over_corners(
+      incidence, Eigen::Vector3d::Zero().eval(),
+      [&](Index corner) -> Eigen::Vector3d { return per_element[at(corner / 4)].col(corner % 4); },
+      [&](Index n, const Eigen::Vector3d& sum) { out.row(n) = sum.transpose(); });
 }
 
 void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Points& f) {

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "core/elastic_forces.h"
+#include "core/node_sums.h"
 #include "core/parallel.h"
 #include "core/surface_geometry.h"
 
@@ -26,14 +27,10 @@ void for_each_index(Index count, F&& f) {
 
 /// out_i = ¼ Σ_{e∋i} per_element_e, in the incidence's fixed order.
 void quarter_node_sums(const NodeIncidence& incidence, const Eigen::VectorXd& per_element, Eigen::VectorXd& out) {
-  const auto nn = static_cast<Index>(incidence.offsets.size() - 1);
-  out.resize(nn);
-  for_each_index(nn, [&](Index n) {
-    double sum = 0.0;
-    for (Index c = incidence.offsets[at(n)]; c < incidence.offsets[at(n) + 1]; ++c)
-      sum += per_element[incidence.corners[at(c)] / 4];
-    out[n] = 0.25 * sum;
-  });
+  out.resize(static_cast<Index>(incidence.offsets.size() - 1));
+  sum_over_corners(
+      incidence, 0.0, [&](Index corner) { return per_element[corner / 4]; },
+      [&](Index n, double sum) { out[n] = 0.25 * sum; });
 }
 
 /// out_n = Σ_{corners (e, k) of n} scale_e G_e.col(k), in the incidence's
@@ -41,16 +38,11 @@ void quarter_node_sums(const NodeIncidence& incidence, const Eigen::VectorXd& pe
 /// products, summed in the same order: the same bits) without storing them.
 void gather_scaled_to_nodes(const NodeIncidence& incidence, const std::vector<Matrix34>& G, const Eigen::VectorXd& scale,
                             Points& out) {
-  const auto nn = static_cast<Index>(incidence.offsets.size() - 1);
-  out.resize(nn, 3);
-  for_each_index(nn, [&](Index n) {
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (Index c = incidence.offsets[at(n)]; c < incidence.offsets[at(n) + 1]; ++c) {
-      const Index corner = incidence.corners[at(c)];
-      sum += scale[corner / 4] * G[at(corner / 4)].col(corner % 4);
-    }
-    out.row(n) = sum.transpose();
-  });
+  out.resize(static_cast<Index>(incidence.offsets.size() - 1), 3);
+  sum_over_corners(
+      incidence, Eigen::Vector3d::Zero().eval(),
+      [&](Index corner) -> Eigen::Vector3d { return scale[corner / 4] * G[at(corner / 4)].col(corner % 4); },
+      [&](Index n, const Eigen::Vector3d& sum) { out.row(n) = sum.transpose(); });
 }
 
 /// ∂V/∂x of a tetrahedron's four corners (columns), and V = det(Ds) / 6.

@@ -1,0 +1,30 @@
+#pragma once
+// Node sums over the element corners that touch each node, in the
+// incidence's fixed order (core/body.h, NodeIncidence): the one loop behind
+// every gather of per-element values to nodes, so each is bitwise the same
+// for any number of threads.
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "core/body.h"
+#include "core/parallel.h"
+
+namespace goo {
+
+/// For every node n, in parallel: store(n, zero + value(c₁) + value(c₂) + …)
+/// over its corners c = 4 e + k in increasing order, summed left to right.
+template <class T, class Value, class Store>
+void sum_over_corners(const NodeIncidence& incidence, const T& zero, Value&& value, Store&& store) {
+  const auto num_nodes = static_cast<Index>(incidence.offsets.size() - 1);
+  tbb::parallel_for(tbb::blocked_range<Index>(0, num_nodes, kParallelGrain),
+                    [&](const tbb::blocked_range<Index>& range) {
+                      for (Index n = range.begin(); n != range.end(); ++n) {
+                        T sum = zero;
+                        for (Index c = incidence.offsets[at(n)]; c < incidence.offsets[at(n) + 1]; ++c)
+                          sum += value(incidence.corners[at(c)]);
+                        store(n, sum);
+                      }
+                    });
+}
+
+}  // namespace goo
