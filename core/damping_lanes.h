@@ -27,14 +27,8 @@ inline void damping_lanes(const Mat3<typename Ops::R>& G, const Mat3<typename Op
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) S(i, j) = 0.5 * (E(i, j) + E(j, i));
   // Eigen evaluates (s G S) as (s G) S.
-  Mat3<R> sG;
   const R minus_scale = -scale;
-  for (int k = 0; k < 9; ++k) sG.m[k] = minus_scale * G.m[k];
-  const Mat3<R> H = product_transposed(product(sG, S), A);
-  for (int i = 0; i < 3; ++i) {
-    f[0][i] = -(H(i, 0) + (H(i, 1) + H(i, 2)));
-    for (int k = 0; k < 3; ++k) f[k + 1][i] = H(i, k);
-  }
+  corner_forces(product_transposed(product(scaled(minus_scale, G), S), A), f);
 }
 
 }  // namespace

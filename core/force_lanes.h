@@ -55,14 +55,8 @@ template <class R>
 inline void element_forces(const Mat3<R>& U, const R sigma[3], const Mat3<R>& V, const R dpsi[3], const Mat3<R>& Fp_inv,
                            const Mat3<R>& Dm_inv, const R& volume, R f[4][3], Mat3<R>& Fe) {
   const Mat3<R> P = product_transposed(scaled_columns(U, dpsi), V);
-  Mat3<R> scaled;
   const R minus_volume = -volume;
-  for (int k = 0; k < 9; ++k) scaled.m[k] = minus_volume * P.m[k];
-  const Mat3<R> H = product_transposed(product_transposed(scaled, Fp_inv), Dm_inv);
-  for (int i = 0; i < 3; ++i) {
-    f[0][i] = -(H(i, 0) + (H(i, 1) + H(i, 2)));
-    for (int k = 0; k < 3; ++k) f[k + 1][i] = H(i, k);
-  }
+  corner_forces(product_transposed(product_transposed(scaled(minus_volume, P), Fp_inv), Dm_inv), f);
   Fe = product_transposed_into_memory(scaled_columns(U, sigma), V);  // kept per element
 }
 

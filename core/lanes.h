@@ -74,6 +74,24 @@ inline Mat3<R> product_transposed(const Mat3<R>& X, const Mat3<R>& Y) {
   return out;
 }
 
+/// s X, entry by entry.
+template <class R>
+inline Mat3<R> scaled(const R& s, const Mat3<R>& X) {
+  Mat3<R> out;
+  for (int k = 0; k < 9; ++k) out.m[k] = s * X.m[k];
+  return out;
+}
+
+/// An element's corner forces from H (W&T eq. 2, Eigen's sum order):
+/// corners 1–3 take H's columns, corner 0 minus their sum.
+template <class R>
+inline void corner_forces(const Mat3<R>& H, R f[4][3]) {
+  for (int i = 0; i < 3; ++i) {
+    f[0][i] = -(H(i, 0) + (H(i, 1) + H(i, 2)));
+    for (int k = 0; k < 3; ++k) f[k + 1][i] = H(i, k);
+  }
+}
+
 /// The lane type `double`.
 struct ScalarOps {
   using R = double;
