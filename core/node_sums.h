@@ -11,20 +11,30 @@
 
 namespace goo {
 
-/// For every node n, in parallel: store(n, zero + value(c₁) + value(c₂) + …)
-/// over its corners c = 4 e + k in increasing order, summed left to right.
+/// For every node n, in parallel: store(n, zero + value(i₁, c₁) + value(i₂, c₂)
+/// + …) over its corners c = 4 e + k in increasing order, summed left to
+/// right; i is the corner's place in the incidence (for values kept in
+/// that order).
 template <class T, class Value, class Store>
-void sum_over_corners(const NodeIncidence& incidence, const T& zero, Value&& value, Store&& store) {
+void sum_over_incidence(const NodeIncidence& incidence, const T& zero, Value&& value, Store&& store) {
   const auto num_nodes = static_cast<Index>(incidence.offsets.size() - 1);
   tbb::parallel_for(tbb::blocked_range<Index>(0, num_nodes, kParallelGrain),
                     [&](const tbb::blocked_range<Index>& range) {
                       for (Index n = range.begin(); n != range.end(); ++n) {
                         T sum = zero;
-                        for (Index c = incidence.offsets[at(n)]; c < incidence.offsets[at(n) + 1]; ++c)
-                          sum += value(incidence.corners[at(c)]);
+                        for (Index i = incidence.offsets[at(n)]; i < incidence.offsets[at(n) + 1]; ++i)
+                          sum += value(i, incidence.corners[at(i)]);
                         store(n, sum);
                       }
                     });
+}
+
+/// For every node n, in parallel: store(n, zero + value(c₁) + value(c₂) + …)
+/// over its corners c = 4 e + k in increasing order, summed left to right.
+template <class T, class Value, class Store>
+void sum_over_corners(const NodeIncidence& incidence, const T& zero, Value&& value, Store&& store) {
+  sum_over_incidence(
+      incidence, zero, [&](Index, Index corner) { return value(corner); }, store);
 }
 
 }  // namespace goo

@@ -34,14 +34,14 @@ void quarter_node_sums(const NodeIncidence& incidence, const Eigen::VectorXd& pe
 }
 
 /// out_n = Σ_{corners (e, k) of n} scale_e G_e.col(k), in the incidence's
-/// fixed order: gather_to_nodes of the matrices scale_e G_e (the same
-/// products, summed in the same order: the same bits) without storing them.
-void gather_scaled_to_nodes(const NodeIncidence& incidence, const std::vector<Matrix34>& G, const Eigen::VectorXd& scale,
-                            Points& out) {
+/// fixed order, from G's columns kept in that order (`corner_gradient`):
+/// read in sequence, not gathered from the elements.
+void gather_scaled_to_nodes(const NodeIncidence& incidence, const std::vector<Eigen::Vector3d>& corner_gradient,
+                            const Eigen::VectorXd& scale, Points& out) {
   out.resize(static_cast<Index>(incidence.offsets.size() - 1), 3);
-  sum_over_corners(
+  sum_over_incidence(
       incidence, Eigen::Vector3d::Zero().eval(),
-      [&](Index corner) -> Eigen::Vector3d { return scale[corner / 4] * G[at(corner / 4)].col(corner % 4); },
+      [&](Index i, Index corner) -> Eigen::Vector3d { return scale[corner / 4] * corner_gradient[at(i)]; },
       [&](Index n, const Eigen::Vector3d& sum) { out.row(n) = sum.transpose(); });
 }
 
@@ -155,6 +155,15 @@ void VolumeProjection::gradients(const Body& body, const Points& start) {
     volume_gradient(x(0), x(1), x(2), x(3), gradient_[at(e)]);
     gradient_[at(e)] *= weight_[e];
   });
+  // The same columns in the incidence's order, for the node sums.
+  const NodeIncidence& incidence = body.incidence;
+  corner_gradient_.resize(incidence.corners.size());
+  for_each_index(static_cast<Index>(incidence.offsets.size() - 1), [&](Index n) {
+    for (Index i = incidence.offsets[at(n)]; i < incidence.offsets[at(n) + 1]; ++i) {
+      const Index corner = incidence.corners[at(i)];
+      corner_gradient_[at(i)] = gradient_[at(corner / 4)].col(corner % 4);
+    }
+  });
 }
 
 void VolumeProjection::volumes(const Body& body, const Points& positions) {
@@ -176,7 +185,7 @@ void VolumeProjection::weighted_volumes(const Body& body, const Points& position
 // (G M⁻¹ Gᵀ) λ without forming the matrix: per element Λ_e = ¼ Σ_k λ_{n_k};
 // y = M⁻¹ Σ_e Λ_e ∂V_e/∂x (node sums in the incidence order); then
 // s_e = Σ_k ∂V_e/∂x_k · y_{n_k} and (Aλ)_i = ¼ Σ_{e∋i} s_e.
-void VolumeProjection::transpose_product(const Body& body, const Eigen::VectorXd& lambda, Points& out) {
+void VolumeProjection::element_lambdas(const Body& body, const Eigen::VectorXd& lambda) {
   const Index ne = body.num_elements();
   element_lambda_.resize(ne);
   for_each_index(ne, [&](Index e) {
@@ -184,14 +193,24 @@ void VolumeProjection::transpose_product(const Body& body, const Eigen::VectorXd
     for (int k = 0; k < 4; ++k) s += lambda[body.tets(e, k)];
     element_lambda_[e] = 0.25 * s;
   });
-  gather_scaled_to_nodes(body.incidence, gradient_, element_lambda_, out);
+}
+
+void VolumeProjection::transpose_product(const Body& body, const Eigen::VectorXd& lambda, Points& out) {
+  element_lambdas(body, lambda);
+  gather_scaled_to_nodes(body.incidence, corner_gradient_, element_lambda_, out);
+}
+
+void VolumeProjection::free_direction(Index n, Eigen::Vector3d& y) const {
+  if (sliding(n)) y = sliding_->free[at(n)] * y;
+  y *= inverse_mass_[n];
 }
 
 void VolumeProjection::move(const Body& body, const Eigen::VectorXd& lambda) {
   transpose_product(body, lambda, direction_);
   for_each_index(body.num_nodes(), [&](Index n) {
-    if (sliding(n)) direction_.row(n) = (sliding_->free[at(n)] * direction_.row(n).transpose()).transpose();
-    direction_.row(n) *= inverse_mass_[n];
+    Eigen::Vector3d y = direction_.row(n).transpose();
+    free_direction(n, y);
+    direction_.row(n) = y.transpose();
   });
 }
 
@@ -209,18 +228,37 @@ void VolumeProjection::carry(const Body& body, const Eigen::VectorXd& lambda, do
   pressure_ += scale * lambda;
 }
 
+// Two passes over the nodes (and one over the elements for Λ_e): the
+// first sums y_n = P_n M⁻¹_n Σ_{e∋n} Λ_e ∂V_e/∂x_n and at once writes each
+// of n's corners' term ∂V_e/∂x_n · y_n into the element's four slots; the
+// second sums (Aλ)_i = ¼ Σ_{e∋i} s_e, s_e the four slots added in corner
+// order. The same products and sums in the same order as move() followed
+// by s_e = Σ_k ∂V_e/∂x_k · y_{n_k}: the same bits.
 void VolumeProjection::apply(const Body& body, const Eigen::VectorXd& lambda, Eigen::VectorXd& out) {
-  move(body, lambda);
-  const Index ne = body.num_elements();
-  element_sum_.resize(ne);
-  for_each_index(ne, [&](Index e) {
-    double s = 0.0;
-    for (int k = 0; k < 4; ++k) s += gradient_[at(e)].col(k).dot(direction_.row(body.tets(e, k)).transpose());
-    element_sum_[e] = s;
-  });
-  quarter_node_sums(body.incidence, element_sum_, out);
-  for (Index n = 0; n < out.size(); ++n)
-    if (!active_[at(n)]) out[n] = 0.0;
+  const NodeIncidence& incidence = body.incidence;
+  element_lambdas(body, lambda);
+  direction_.resize(body.num_nodes(), 3);
+  corner_term_.resize(incidence.corners.size());
+  sum_over_incidence(
+      incidence, Eigen::Vector3d::Zero().eval(),
+      [&](Index i, Index corner) -> Eigen::Vector3d { return element_lambda_[corner / 4] * corner_gradient_[at(i)]; },
+      [&](Index n, const Eigen::Vector3d& sum) {
+        Eigen::Vector3d y = sum;
+        free_direction(n, y);
+        direction_.row(n) = y.transpose();
+        for (Index i = incidence.offsets[at(n)]; i < incidence.offsets[at(n) + 1]; ++i)
+          corner_term_[at(incidence.corners[at(i)])] = corner_gradient_[at(i)].dot(y);
+      });
+  out.resize(body.num_nodes());
+  sum_over_corners(
+      incidence, 0.0,
+      [&](Index corner) {
+        const double* t = &corner_term_[at(corner - corner % 4)];
+        double s = 0.0;
+        for (int k = 0; k < 4; ++k) s += t[k];
+        return s;
+      },
+      [&](Index n, double sum) { out[n] = active_[at(n)] ? 0.25 * sum : 0.0; });
 }
 
 bool VolumeProjection::Prepared::same(const Body& body, const Points& at_positions,

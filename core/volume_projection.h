@@ -140,7 +140,13 @@ class VolumeProjection {
   void volumes(const Body& body, const Points& positions);
   /// out = Gᵀ λ (#N×3): Σ_e (¼ Σ_k λ_{n_k}) ∂V_e/∂x, in the incidence order.
   void transpose_product(const Body& body, const Eigen::VectorXd& lambda, Points& out);
+  /// element_lambda_ = Λ_e = ¼ Σ_k λ_{n_k}.
+  void element_lambdas(const Body& body, const Eigen::VectorXd& lambda);
+  /// out = (G M⁻¹ Gᵀ) λ over the constrained nodes (0 elsewhere); leaves
+  /// direction_ = M⁻¹ Gᵀ λ, as move().
   void apply(const Body& body, const Eigen::VectorXd& lambda, Eigen::VectorXd& out);
+  /// y ← M⁻¹ P y at node n: along its free directions (sliding), by its inverse mass.
+  void free_direction(Index n, Eigen::Vector3d& y) const;
   void move(const Body& body, const Eigen::VectorXd& lambda);
   /// The carried pressures += scale × λ (sized to the body first).
   void carry(const Body& body, const Eigen::VectorXd& lambda, double scale);
@@ -154,6 +160,8 @@ class VolumeProjection {
   VolumeProjectionSettings settings_;
   // Work arrays, kept across steps.
   std::vector<Matrix34> gradient_;  ///< ∂V_e/∂x of each element's four nodes
+  std::vector<Eigen::Vector3d> corner_gradient_;  ///< the same columns in the incidence's order
+  std::vector<double> corner_term_;  ///< per corner 4 e + k, ∂V_e/∂x_k · y_{n_k} (apply)
   Eigen::VectorXd element_lambda_;  ///< Λ_e = ¼ Σ_k λ_{n_k}
   Eigen::VectorXd volume_, rest_, element_sum_, inverse_mass_, node_rest_, diagonal_;
   Eigen::VectorXd weight_;  ///< per element, the share of it the constraints count (φ_e: its material)
