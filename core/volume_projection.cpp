@@ -228,17 +228,12 @@ void VolumeProjection::carry(const Body& body, const Eigen::VectorXd& lambda, do
   pressure_ += scale * lambda;
 }
 
-// Two passes over the nodes (and one over the elements for Λ_e): the
-// first sums y_n = P_n M⁻¹_n Σ_{e∋n} Λ_e ∂V_e/∂x_n and at once writes each
-// of n's corners' term ∂V_e/∂x_n · y_n into the element's four slots; the
-// second sums (Aλ)_i = ¼ Σ_{e∋i} s_e, s_e the four slots added in corner
-// order. The same products and sums in the same order as move() followed
-// by s_e = Σ_k ∂V_e/∂x_k · y_{n_k}: the same bits.
+// y = M⁻¹ P Gᵀλ as move() (its store fused into the gather), then per
+// element s_e = Σ_k ∂V_e/∂x_k · y_{n_k} and (Aλ)_i = ¼ Σ_{e∋i} s_e.
 void VolumeProjection::apply(const Body& body, const Eigen::VectorXd& lambda, Eigen::VectorXd& out) {
   const NodeIncidence& incidence = body.incidence;
   element_lambdas(body, lambda);
   direction_.resize(body.num_nodes(), 3);
-  corner_term_.resize(incidence.corners.size());
   sum_over_incidence(
       incidence, Eigen::Vector3d::Zero().eval(),
       [&](Index i, Index corner) -> Eigen::Vector3d { return element_lambda_[corner / 4] * corner_gradient_[at(i)]; },
@@ -246,18 +241,17 @@ void VolumeProjection::apply(const Body& body, const Eigen::VectorXd& lambda, Ei
         Eigen::Vector3d y = sum;
         free_direction(n, y);
         direction_.row(n) = y.transpose();
-        for (Index i = incidence.offsets[at(n)]; i < incidence.offsets[at(n) + 1]; ++i)
-          corner_term_[at(incidence.corners[at(i)])] = corner_gradient_[at(i)].dot(y);
       });
+  const Index ne = body.num_elements();
+  element_sum_.resize(ne);
+  for_each_index(ne, [&](Index e) {
+    double s = 0.0;
+    for (int k = 0; k < 4; ++k) s += gradient_[at(e)].col(k).dot(direction_.row(body.tets(e, k)).transpose());
+    element_sum_[e] = s;
+  });
   out.resize(body.num_nodes());
   sum_over_corners(
-      incidence, 0.0,
-      [&](Index corner) {
-        const double* t = &corner_term_[at(corner - corner % 4)];
-        double s = 0.0;
-        for (int k = 0; k < 4; ++k) s += t[k];
-        return s;
-      },
+      incidence, 0.0, [&](Index corner) { return element_sum_[corner / 4]; },
       [&](Index n, double sum) { out[n] = active_[at(n)] ? 0.25 * sum : 0.0; });
 }
 

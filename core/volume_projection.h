@@ -161,7 +161,6 @@ class VolumeProjection {
   // Work arrays, kept across steps.
   std::vector<Matrix34> gradient_;  ///< ∂V_e/∂x of each element's four nodes
   std::vector<Eigen::Vector3d> corner_gradient_;  ///< the same columns in the incidence's order
-  std::vector<double> corner_term_;  ///< per corner 4 e + k, ∂V_e/∂x_k · y_{n_k} (apply)
   Eigen::VectorXd element_lambda_;  ///< Λ_e = ¼ Σ_k λ_{n_k}
   Eigen::VectorXd volume_, rest_, element_sum_, inverse_mass_, node_rest_, diagonal_;
   Eigen::VectorXd weight_;  ///< per element, the share of it the constraints count (φ_e: its material)
