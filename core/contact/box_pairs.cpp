@@ -71,10 +71,6 @@ Grid make_grid(const std::vector<const Box3*>& boxes) {
   return g;
 }
 
-bool overlap(const Box3& a, const Box3& b) {
-  return (a.min().array() <= b.max().array()).all() && (b.min().array() <= a.max().array()).all();
-}
-
 /// Sorts the keys in place, ascending: a least-significant-digit radix sort
 /// (11-bit digits, skipping the digits every key shares), one pass per
 /// digit. Keys are distinct, so the order is the same on any machine.
@@ -163,38 +159,59 @@ std::vector<std::array<Index, 2>> find_pairs(const std::vector<const Box3*>& box
   run_start.push_back(entries.size());
 
   // Each pair is reported by one cell: the one of the lower corner of the
-  // two boxes' overlap, which both cover.
+  // two boxes' overlap, which both cover. A cell's boxes are first copied
+  // side by side (bounds per axis, their cell ranges' lower corners), so
+  // that its pairs are tested without reaching into the boxes' arrays.
   const std::size_t runs = run_start.size() - 1, grain = 256;
   std::vector<std::vector<std::array<Index, 2>>> found((runs + grain - 1) / grain);
   tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t chunk) {
     auto& out = found[chunk];
+    std::array<std::vector<double>, 3> lo, hi;
+    std::array<std::vector<std::int32_t>, 3> first_cell;
+    std::vector<std::size_t> id;
     for (std::size_t r = chunk * grain; r < std::min(runs, (chunk + 1) * grain); ++r) {
-      const std::size_t begin = run_start[r], end = run_start[r + 1];
+      const std::size_t begin = run_start[r], end = run_start[r + 1], m = end - begin;
       const std::uint64_t cell = entries[begin] >> bits;
+      id.resize(m);
+      for (int k = 0; k < 3; ++k) {
+        lo[at(k)].resize(m), hi[at(k)].resize(m), first_cell[at(k)].resize(m);
+      }
+      for (std::size_t x = 0; x < m; ++x) {
+        const std::size_t i = entries[begin + x] & box_mask;
+        id[x] = i;
+        for (int k = 0; k < 3; ++k) {
+          lo[at(k)][x] = live_boxes[i]->min()[k];
+          hi[at(k)][x] = live_boxes[i]->max()[k];
+          first_cell[at(k)][x] = range[i].lo[at(k)];
+        }
+      }
       // With a split the first side's boxes come first in a cell (sorted by
       // box): pair them with the second side's only.
-      std::size_t second = begin;
+      std::size_t second = 0;
       if (split >= 0)
-        while (second < end && live[entries[second] & box_mask] < split) ++second;
-      const std::size_t first_end = split >= 0 ? second : end;
-      for (std::size_t x = begin; x < first_end;) {
+        while (second < m && live[id[second]] < split) ++second;
+      const std::size_t first_end = split >= 0 ? second : m;
+      for (std::size_t x = 0; x < first_end;) {
         // The run of x's group in this cell (x alone if it has none): its
         // boxes are paired with those after it only.
         std::size_t block_end = x + 1;
         if (groups) {
-          const Index group = group_of[entries[x] & box_mask];
+          const Index group = group_of[id[x]];
           if (group >= 0)
-            while (block_end < first_end && group_of[entries[block_end] & box_mask] == group) ++block_end;
+            while (block_end < first_end && group_of[id[block_end]] == group) ++block_end;
         }
         for (; x < block_end; ++x) {
-          const std::size_t i = entries[x] & box_mask;
-          for (std::size_t y = split >= 0 ? second : block_end; y < end; ++y) {
-            const std::size_t j = entries[y] & box_mask;
-            if (!overlap(*live_boxes[i], *live_boxes[j])) continue;
-            const Range &a = range[i], &b = range[j];
-            if (cell_id(std::max(a.lo[0], b.lo[0]), std::max(a.lo[1], b.lo[1]), std::max(a.lo[2], b.lo[2])) != cell)
+          const double lx = lo[0][x], ly = lo[1][x], lz = lo[2][x], hx = hi[0][x], hy = hi[1][x], hz = hi[2][x];
+          for (std::size_t y = split >= 0 ? second : block_end; y < m; ++y) {
+            // Closed boxes overlap (touching counts) where they do on every
+            // axis; all six tests at once, without a branch per axis.
+            const bool meet = (lx <= hi[0][y]) & (lo[0][y] <= hx) & (ly <= hi[1][y]) & (lo[1][y] <= hy) &
+                              (lz <= hi[2][y]) & (lo[2][y] <= hz);
+            if (!meet) continue;
+            if (cell_id(std::max(first_cell[0][x], first_cell[0][y]), std::max(first_cell[1][x], first_cell[1][y]),
+                        std::max(first_cell[2][x], first_cell[2][y])) != cell)
               continue;
-            const Index s = live[i], t = live[j];
+            const Index s = live[id[x]], t = live[id[y]];
             out.push_back(split >= 0 ? std::array<Index, 2>{s, t - split}
                                      : std::array<Index, 2>{std::min(s, t), std::max(s, t)});
           }
