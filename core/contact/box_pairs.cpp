@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "core/parallel.h"
+#include "core/radix_sort.h"
 
 namespace goo {
 namespace {
@@ -71,27 +72,6 @@ Grid make_grid(const std::vector<const Box3*>& boxes) {
   return g;
 }
 
-/// Sorts the keys in place, ascending: a least-significant-digit radix sort
-/// (11-bit digits, skipping the digits every key shares), one pass per
-/// digit. Keys are distinct, so the order is the same on any machine.
-void radix_sort(std::vector<std::uint64_t>& keys) {
-  constexpr int kBits = 11;
-  constexpr std::uint64_t kMask = (std::uint64_t{1} << kBits) - 1;
-  std::uint64_t any = 0, all = ~std::uint64_t{0};
-  for (const std::uint64_t k : keys) any |= k, all &= k;
-  const std::uint64_t varying = any ^ all;
-  std::vector<std::uint64_t> scratch(keys.size());
-  for (int shift = 0; shift < 64; shift += kBits) {
-    if (((varying >> shift) & kMask) == 0) continue;
-    std::array<std::size_t, kMask + 1> start{};
-    for (const std::uint64_t k : keys) ++start[(k >> shift) & kMask];
-    std::size_t sum = 0;
-    for (std::size_t& c : start) sum += std::exchange(c, sum);
-    for (const std::uint64_t k : keys) scratch[start[(k >> shift) & kMask]++] = k;
-    keys.swap(scratch);
-  }
-}
-
 /// Pairs of overlapping boxes among `boxes`; with `split` ≥ 0, only pairs of
 /// one box below `split` and one at or above it (reported as (i, j − split)).
 std::vector<std::array<Index, 2>> find_pairs(const std::vector<const Box3*>& boxes, Index split,
@@ -152,7 +132,7 @@ std::vector<std::array<Index, 2>> find_pairs(const std::vector<const Box3*>& box
           for (std::int32_t x = c.lo[0]; x <= c.hi[0]; ++x) entries[e++] = (cell_id(x, y, z) << bits) | i;
     }
   });
-  radix_sort(entries);  // distinct keys: one order for any thread count
+  radix_sort(entries, [](std::uint64_t k) { return k; });  // distinct keys: one order for any thread count
   std::vector<std::size_t> run_start;
   for (std::size_t e = 0; e < entries.size(); ++e)
     if (e == 0 || (entries[e] >> bits) != (entries[e - 1] >> bits)) run_start.push_back(e);
