@@ -114,8 +114,10 @@ void triangulate_polygon(std::span<const Index> polygon, const Points& vertices,
     out.emplace_back(polygon[ring[0]], polygon[ring[i]], polygon[ring[i + 1]]);
 }
 
-Index remove_unreferenced_vertices(TriangleMesh& mesh) {
-  std::vector<Index> new_id(at(mesh.num_vertices()), -1);
+Index remove_unreferenced_vertices(TriangleMesh& mesh, std::vector<Index>* new_ids) {
+  std::vector<Index> local;
+  std::vector<Index>& new_id = new_ids ? *new_ids : local;
+  new_id.assign(at(mesh.num_vertices()), -1);
   for (Index t = 0; t < mesh.num_triangles(); ++t)
     for (int k = 0; k < 3; ++k) new_id[at(mesh.triangles(t, k))] = 0;
   Index kept = 0;

@@ -25,7 +25,8 @@ struct WeldResult {
 WeldResult weld_vertices(TriangleMesh& mesh, double relative_tolerance);
 
 /// Drops vertices that no triangle references, keeping the order of the rest.
-/// Returns how many were dropped.
-Index remove_unreferenced_vertices(TriangleMesh& mesh);
+/// Returns how many were dropped; with `new_ids`, each old vertex's new id
+/// (−1: dropped).
+Index remove_unreferenced_vertices(TriangleMesh& mesh, std::vector<Index>* new_ids = nullptr);
 
 }  // namespace goo

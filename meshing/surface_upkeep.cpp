@@ -1,10 +1,16 @@
 #include "meshing/surface_upkeep.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <limits>
 #include <numbers>
 #include <optional>
-#include <cmath>
+#include <set>
 #include <unordered_map>
 #include <vector>
 
@@ -12,6 +18,7 @@
 #include "core/error.h"
 #include "core/parallel.h"
 #include "core/polygon_soup.h"
+#include "core/radix_sort.h"
 #include "meshing/surface_intersections.h"
 
 namespace goo {
@@ -31,17 +38,33 @@ Eigen::Vector3d point(const TriangleMesh& s, Index v) { return s.vertices.row(v)
 
 double length(const TriangleMesh& s, const Edge& e) { return (point(s, e.first) - point(s, e.second)).norm(); }
 
+std::vector<Edge> by_length(const TriangleMesh& s, std::vector<Edge> edges, bool longer);
+
 /// The unique edges longer than `limit` (`longer`) or shorter than it,
 /// longest (shortest) first, ties by ids. A fine surface has millions of
 /// edges and, at a re-mesh, few of either kind: only those are sorted.
 std::vector<Edge> edges_beyond(const TriangleMesh& s, double limit, bool longer) {
+  // Gathered in parallel, in chunks of triangles concatenated in order
+  // (the sort below makes the order moot anyway).
+  constexpr Index kChunk = 4096;
+  const Index nt = s.num_triangles();
+  std::vector<std::vector<Edge>> found(at((nt + kChunk - 1) / kChunk));
+  tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t chunk) {
+    const Index begin = static_cast<Index>(chunk) * kChunk, end = std::min(nt, begin + kChunk);
+    for (Index t = begin; t < end; ++t)
+      for (int k = 0; k < 3; ++k) {
+        const Edge e = edge(s.triangles(t, k), s.triangles(t, (k + 1) % 3));
+        const double l = length(s, e);
+        if (longer ? l > limit : l < limit) found[chunk].push_back(e);
+      }
+  });
   std::vector<Edge> edges;
-  for (Index t = 0; t < s.num_triangles(); ++t)
-    for (int k = 0; k < 3; ++k) {
-      const Edge e = edge(s.triangles(t, k), s.triangles(t, (k + 1) % 3));
-      const double l = length(s, e);
-      if (longer ? l > limit : l < limit) edges.push_back(e);
-    }
+  for (const auto& f : found) edges.insert(edges.end(), f.begin(), f.end());
+  return by_length(s, std::move(edges), longer);
+}
+
+/// `edges` without repeats, longest (shortest) first, ties by ids.
+std::vector<Edge> by_length(const TriangleMesh& s, std::vector<Edge> edges, bool longer) {
   std::sort(edges.begin(), edges.end());
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
   std::vector<double> lengths(edges.size());
@@ -109,20 +132,63 @@ double cone6(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Ve
 
 /// Triangles by grid cell, for "which triangles may meet this box": each
 /// triangle is entered in the cells its box covers (again when it changes;
-/// a query checks the boxes themselves).
+/// a query checks the boxes themselves). A grid made from a whole surface
+/// keeps its (cell, triangle) entries in one sorted array, filled in
+/// parallel; the triangles inserted later (a pass's few changed ones) go
+/// to a map of cells.
 class TriangleGrid {
  public:
   explicit TriangleGrid(double cell) : cell_(cell) {}
   TriangleGrid(const TriangleMesh& s, double cell) : cell_(cell) {
-    for (Index t = 0; t < s.num_triangles(); ++t) insert(s, t);
+    const Index nt = s.num_triangles();
+    std::vector<std::size_t> offset(at(nt) + 1, 0);
+    tbb::parallel_for(tbb::blocked_range<Index>(0, nt, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+      for (Index t = r.begin(); t != r.end(); ++t) {
+        std::size_t count = 0;
+        for_cells(box(s, t), [&](std::uint64_t) { ++count; });
+        offset[at(t) + 1] = count;
+      }
+    });
+    for (std::size_t t = 0; t < at(nt); ++t) offset[t + 1] += offset[t];
+    entries_.resize(offset[at(nt)]);
+    tbb::parallel_for(tbb::blocked_range<Index>(0, nt, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+      for (Index t = r.begin(); t != r.end(); ++t) {
+        std::size_t e = offset[at(t)];
+        for_cells(box(s, t), [&](std::uint64_t key) { entries_[e++] = {key, t}; });
+      }
+    });
+    // Stable by cell: filled in triangle order, so sorted by (cell, triangle).
+    radix_sort(entries_, [](const std::pair<std::uint64_t, Index>& entry) { return entry.first; });
   }
   void insert(const TriangleMesh& s, Index t) {
     for_cells(box(s, t), [&](std::uint64_t key) { cells_[key].push_back(t); });
+  }
+  /// The grid of `s` after a pass, from this one of `s` before it: old
+  /// triangle t is now triangle new_index[t] (−1: gone; increasing in t),
+  /// and those with `changed` set are entered anew at their new places.
+  /// The same entries as a grid made from `s`; the inserted ones are dropped.
+  void renumber(const TriangleMesh& s, const std::vector<Index>& new_index, const std::vector<std::uint8_t>& changed) {
+    std::vector<std::pair<std::uint64_t, Index>> kept, fresh;
+    kept.reserve(entries_.size());
+    for (const auto& [key, t] : entries_)  // still sorted: new_index increases with t
+      if (new_index[at(t)] >= 0 && !changed[at(t)]) kept.emplace_back(key, new_index[at(t)]);
+    for (std::size_t t = 0; t < changed.size(); ++t)
+      if (changed[t] && new_index[t] >= 0)
+        for_cells(box(s, new_index[t]), [&](std::uint64_t key) { fresh.emplace_back(key, new_index[t]); });
+    std::sort(fresh.begin(), fresh.end());
+    entries_.resize(kept.size() + fresh.size());
+    std::merge(kept.begin(), kept.end(), fresh.begin(), fresh.end(), entries_.begin());
+    cells_.clear();
   }
   /// The triangles entered in the cells of `query`, each once, sorted.
   std::vector<Index> near(const Eigen::AlignedBox3d& query) const {
     std::vector<Index> out;
     for_cells(query, [&](std::uint64_t key) {
+      if (!entries_.empty()) {
+        const std::pair<std::uint64_t, Index> first{key, std::numeric_limits<Index>::min()};
+        for (auto it = std::lower_bound(entries_.begin(), entries_.end(), first); it != entries_.end() && it->first == key; ++it)
+          out.push_back(it->second);
+      }
       if (const auto it = cells_.find(key); it != cells_.end()) out.insert(out.end(), it->second.begin(), it->second.end());
     });
     std::sort(out.begin(), out.end());
@@ -149,6 +215,7 @@ class TriangleGrid {
         }
   }
   double cell_;
+  std::vector<std::pair<std::uint64_t, Index>> entries_;  // (cell, triangle), sorted
   std::unordered_map<std::uint64_t, std::vector<Index>> cells_;
 };
 
@@ -172,15 +239,15 @@ struct CollapsePass {
   double volume_change = 0.0;
 };
 
-/// `blockers`: other surfaces the new fans must not meet either (with
-/// `blocker_grid` over their triangles).
-CollapsePass collapse_pass(TriangleMesh& s, double limit, double cell, const TriangleMesh* blockers,
-                           const TriangleGrid* blocker_grid) {
+/// `short_edges`: the edges shorter than the limit when the pass starts,
+/// shortest first (edges_beyond); `surface_grid` the grid of s. Both are brought up
+/// to date for the next pass. `blockers`: other surfaces the new fans must
+/// not meet either (with `blocker_grid` over their triangles).
+CollapsePass collapse_pass(TriangleMesh& s, double limit, double cell, std::vector<Edge>& short_edges,
+                           TriangleGrid& surface_grid, const TriangleMesh* blockers, const TriangleGrid* blocker_grid) {
   CollapsePass out;
-  // Edges shorter than the limit when the pass starts, shortest first. (A
-  // collapse moves vertices, but only those of edges it marks dirty, which
-  // the pass then skips: no other edge comes below the limit.)
-  const std::vector<Edge> short_edges = edges_beyond(s, limit, false);
+  // (A collapse moves vertices, but only those of edges it marks dirty,
+  // which the pass then skips: no other edge comes below the limit.)
   if (short_edges.empty()) return out;
   const Index nv = s.num_vertices(), nt = s.num_triangles();
   // The triangles around the ends of those edges: the only stars the pass
@@ -198,7 +265,8 @@ CollapsePass collapse_pass(TriangleMesh& s, double limit, double cell, const Tri
       if (const Index v = s.triangles(t, k); slot[at(v)] >= 0) stars[at(slot[at(v)])].push_back(t);
   auto star = [&](Index v) -> std::vector<Index>& { return stars[at(slot[at(v)])]; };
   std::vector<std::uint8_t> dead(at(nt), 0), dirty(at(nv), 0);
-  const TriangleGrid before_pass(s, cell);
+  std::vector<std::uint8_t> reshaped(at(nt), 0), merged(at(nv), 0);  // by the pass's collapses
+  const TriangleGrid& before_pass = surface_grid;
   TriangleGrid changed(cell);  // the triangles a collapse moved, at their new places
   auto neighbours = [&](Index v) {
     std::vector<Index> out_v;
@@ -317,7 +385,8 @@ CollapsePass collapse_pass(TriangleMesh& s, double limit, double cell, const Tri
     }
     out.volume_change += std::abs(volume_with(p) - before);
     for (const Index t : moved_from_b) star(a).push_back(t);
-    for (const Index t : keep) changed.insert(s, t);
+    for (const Index t : keep) changed.insert(s, t), reshaped[at(t)] = 1;
+    merged[at(a)] = merged[at(b)] = 1;
     // The neighbourhood changed: its edges wait for the next pass.
     dirty[at(a)] = dirty[at(b)] = 1;
     for (const Index v : na) dirty[at(v)] = 1;
@@ -326,12 +395,29 @@ CollapsePass collapse_pass(TriangleMesh& s, double limit, double cell, const Tri
   }
   if (out.collapses > 0) {
     Triangles kept(nt, 3);
+    std::vector<Index> new_index(at(nt), -1);
     Index n = 0;
     for (Index t = 0; t < nt; ++t)
-      if (!dead[at(t)]) kept.row(n++) = s.triangles.row(t);
+      if (!dead[at(t)]) new_index[at(t)] = n, kept.row(n++) = s.triangles.row(t);
     kept.conservativeResize(n, 3);
     s.triangles = std::move(kept);
-    remove_unreferenced_vertices(s);
+    std::vector<Index> new_id;
+    remove_unreferenced_vertices(s, &new_id);
+    surface_grid.renumber(s, new_index, reshaped);
+    // The next pass's short edges: this pass's whose ends no collapse
+    // merged or moved (there, and as short, still), and the short ones
+    // among the reshaped triangles' edges (every edge at a moved vertex).
+    std::vector<Edge> next;
+    for (const Edge& e : short_edges)
+      if (!merged[at(e.first)] && !merged[at(e.second)]) next.push_back(edge(new_id[at(e.first)], new_id[at(e.second)]));
+    for (Index t = 0; t < nt; ++t)
+      if (reshaped[at(t)] && !dead[at(t)])
+        for (int k = 0; k < 3; ++k) {
+          const Index r = new_index[at(t)];
+          const Edge e = edge(s.triangles(r, k), s.triangles(r, (k + 1) % 3));
+          if (length(s, e) < limit) next.push_back(e);
+        }
+    short_edges = by_length(s, std::move(next), false);
   }
   return out;
 }
@@ -358,50 +444,72 @@ double angle_at(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen:
 /// a blocker). Slivers, whose normals turn with any small move of a corner,
 /// are what creases a flowing surface; a flip removes them and moves no
 /// vertex.
-FlipPass flip_pass(TriangleMesh& s, double cell, const TriangleMesh* blockers, const TriangleGrid* blocker_grid) {
+FlipPass flip_pass(TriangleMesh& s, double cell, TriangleGrid& surface_grid, const TriangleMesh* blockers,
+                   const TriangleGrid* blocker_grid) {
   constexpr double kFlat = 0.1;
   constexpr double kViolation = 1e-6;  // radians past π: no flip back and forth between cocircular diagonals
   constexpr double kSliver = 15.0 * std::numbers::pi / 180.0;  // a triangle with an angle this sharp is a sliver
   FlipPass out;
   const Index nt = s.num_triangles();
   // (a, b, triangle, corner) for every side, sorted: runs of two are the interior edges.
-  std::vector<std::array<Index, 4>> sides;
-  sides.reserve(at(nt) * 3);
-  for (Index t = 0; t < nt; ++t)
-    for (int k = 0; k < 3; ++k) {
-      const Index a = s.triangles(t, k), b = s.triangles(t, (k + 1) % 3);
-      sides.push_back({std::min(a, b), std::max(a, b), t, k});
-    }
-  std::sort(sides.begin(), sides.end());
-  std::unordered_map<Edge, int, EdgeHash> edges;  // every edge, with its triangle count
-  edges.reserve(sides.size() / 2 + 1);
+  std::vector<std::array<Index, 4>> sides(at(nt) * 3);
+  tbb::parallel_for(tbb::blocked_range<Index>(0, nt, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index t = r.begin(); t != r.end(); ++t)
+      for (int k = 0; k < 3; ++k) {
+        const Index a = s.triangles(t, k), b = s.triangles(t, (k + 1) % 3);
+        sides[3 * at(t) + at(k)] = {std::min(a, b), std::max(a, b), t, k};
+      }
+  });
+  tbb::parallel_sort(sides.begin(), sides.end());  // distinct (triangle, corner): one order
+  // Every edge, sorted; those a flip removes are marked, those it adds kept apart.
+  std::vector<Edge> edge_list;
+  edge_list.reserve(sides.size() / 2 + 1);
+  for (std::size_t i = 0; i < sides.size(); ++i)
+    if (i == 0 || sides[i][0] != sides[i - 1][0] || sides[i][1] != sides[i - 1][1])
+      edge_list.emplace_back(sides[i][0], sides[i][1]);
+  std::vector<std::uint8_t> removed(edge_list.size(), 0);
+  std::set<Edge> added;
+  auto find_edge = [&](const Edge& e) -> std::ptrdiff_t {
+    const auto it = std::lower_bound(edge_list.begin(), edge_list.end(), e);
+    return it != edge_list.end() && *it == e ? it - edge_list.begin() : -1;
+  };
+  auto is_edge = [&](const Edge& e) {
+    const std::ptrdiff_t i = find_edge(e);
+    return (i >= 0 && !removed[static_cast<std::size_t>(i)]) || added.contains(e);
+  };
   struct Candidate {
     double excess;  // α_c + α_d − π
     Index t1, k1, t2;
   };
-  std::vector<Candidate> candidates;
-  for (std::size_t i = 0; i < sides.size(); ++i) {
-    ++edges[Edge{sides[i][0], sides[i][1]}];
-    if (i + 1 < sides.size() && sides[i][0] == sides[i + 1][0] && sides[i][1] == sides[i + 1][1] &&
-        (i + 2 >= sides.size() || sides[i + 2][0] != sides[i][0] || sides[i + 2][1] != sides[i][1]) &&
-        (i == 0 || sides[i - 1][0] != sides[i][0] || sides[i - 1][1] != sides[i][1])) {
-      const Index t1 = sides[i][2], k1 = sides[i][3], t2 = sides[i + 1][2], k2 = sides[i + 1][3];
-      const Index a = s.triangles(t1, k1), b = s.triangles(t1, (k1 + 1) % 3), c = s.triangles(t1, (k1 + 2) % 3);
-      const Index d = s.triangles(t2, (k2 + 2) % 3);
-      if (c == d) continue;
-      const Eigen::Vector3d pa = point(s, a), pb = point(s, b), pc = point(s, c), pd = point(s, d);
-      const double excess = angle_at(pa, pb, pc) + angle_at(pb, pa, pd) - std::numbers::pi;
-      // Only where a sliver is: a well-shaped pair is left as it is (each
-      // flip moves the surface a little, and a convex one inwards).
-      const double sharpest = std::min({angle_at(pa, pb, pc), angle_at(pb, pc, pa), angle_at(pc, pa, pb),
-                                        angle_at(pb, pa, pd), angle_at(pa, pd, pb), angle_at(pd, pb, pa)});
-      if (excess > kViolation && sharpest < kSliver) candidates.push_back({excess, t1, k1, t2});
+  // The candidates, found in parallel and gathered in the sides' order.
+  constexpr std::size_t kChunk = 8192;
+  std::vector<std::vector<Candidate>> found((sides.size() + kChunk - 1) / kChunk);
+  tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t chunk) {
+    for (std::size_t i = chunk * kChunk; i < std::min(sides.size(), (chunk + 1) * kChunk); ++i) {
+      if (i + 1 < sides.size() && sides[i][0] == sides[i + 1][0] && sides[i][1] == sides[i + 1][1] &&
+          (i + 2 >= sides.size() || sides[i + 2][0] != sides[i][0] || sides[i + 2][1] != sides[i][1]) &&
+          (i == 0 || sides[i - 1][0] != sides[i][0] || sides[i - 1][1] != sides[i][1])) {
+        const Index t1 = sides[i][2], k1 = sides[i][3], t2 = sides[i + 1][2], k2 = sides[i + 1][3];
+        const Index a = s.triangles(t1, k1), b = s.triangles(t1, (k1 + 1) % 3), c = s.triangles(t1, (k1 + 2) % 3);
+        const Index d = s.triangles(t2, (k2 + 2) % 3);
+        if (c == d) continue;
+        const Eigen::Vector3d pa = point(s, a), pb = point(s, b), pc = point(s, c), pd = point(s, d);
+        const double excess = angle_at(pa, pb, pc) + angle_at(pb, pa, pd) - std::numbers::pi;
+        if (!(excess > kViolation)) continue;
+        // Only where a sliver is: a well-shaped pair is left as it is (each
+        // flip moves the surface a little, and a convex one inwards).
+        const double sharpest = std::min({angle_at(pa, pb, pc), angle_at(pb, pc, pa), angle_at(pc, pa, pb),
+                                          angle_at(pb, pa, pd), angle_at(pa, pd, pb), angle_at(pd, pb, pa)});
+        if (sharpest < kSliver) found[chunk].push_back({excess, t1, k1, t2});
+      }
     }
-  }
+  });
+  std::vector<Candidate> candidates;
+  for (const auto& f : found) candidates.insert(candidates.end(), f.begin(), f.end());
   if (candidates.empty()) return out;
   std::stable_sort(candidates.begin(), candidates.end(),
                    [](const Candidate& x, const Candidate& y) { return x.excess > y.excess; });
-  const TriangleGrid before_pass(s, cell);
+  const TriangleGrid& before_pass = surface_grid;
   TriangleGrid changed(cell);
   std::vector<std::uint8_t> touched(at(nt), 0);
   for (const Candidate& f : candidates) {
@@ -411,7 +519,7 @@ FlipPass flip_pass(TriangleMesh& s, double cell, const TriangleMesh* blockers, c
     Index d = -1;
     for (int k = 0; k < 3; ++k)
       if (s.triangles(t2, k) != a && s.triangles(t2, k) != b) d = s.triangles(t2, k);
-    if (d < 0 || edges.contains(edge(c, d))) continue;  // cd is an edge already: the flip would pinch the surface
+    if (d < 0 || is_edge(edge(c, d))) continue;  // cd is an edge already: the flip would pinch the surface
     const Eigen::Vector3d pa = point(s, a), pb = point(s, b), pc = point(s, c), pd = point(s, d);
     if (!(std::sqrt(ccd::segment_segment_distance2(pa, pb, pc, pd)) <= kFlat * std::min((pa - pb).norm(), (pc - pd).norm())))
       continue;
@@ -446,12 +554,18 @@ FlipPass flip_pass(TriangleMesh& s, double cell, const TriangleMesh* blockers, c
       continue;
     }
     touched[at(t1)] = touched[at(t2)] = 1;
-    edges.erase(edge(a, b));
-    edges[edge(c, d)] = 2;
+    if (const std::ptrdiff_t i = find_edge(edge(a, b)); i >= 0) removed[static_cast<std::size_t>(i)] = 1;
+    added.erase(edge(a, b));
+    added.insert(edge(c, d));
     changed.insert(s, t1);
     changed.insert(s, t2);
     out.volume_change += std::abs((pb - pa).dot((pc - pa).cross(pd - pa))) / 6.0;
     ++out.flips;
+  }
+  if (out.flips > 0) {  // the flipped pairs entered anew; no triangle renumbered
+    std::vector<Index> same(at(nt));
+    for (Index t = 0; t < nt; ++t) same[at(t)] = t;
+    surface_grid.renumber(s, same, touched);
   }
   return out;
 }
@@ -472,9 +586,13 @@ UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSetting
   const bool blocked = blockers != nullptr && blockers->num_triangles() > 0;
   const std::optional<TriangleGrid> blocker_grid =
       blocked ? std::optional<TriangleGrid>(TriangleGrid(*blockers, cell)) : std::nullopt;
+  // One grid of the surface after the splits, kept up to date by the
+  // passes that follow (each changes a few triangles).
+  TriangleGrid grid(surface, cell);
+  std::vector<Edge> short_edges = edges_beyond(surface, settings.collapse_length * h, false);
   for (int pass = 0; pass < settings.max_passes; ++pass) {
-    const CollapsePass c = collapse_pass(surface, settings.collapse_length * h, cell, blocked ? blockers : nullptr,
-                                         blocked ? &*blocker_grid : nullptr);
+    const CollapsePass c = collapse_pass(surface, settings.collapse_length * h, cell, short_edges, grid,
+                                         blocked ? blockers : nullptr, blocked ? &*blocker_grid : nullptr);
     report.collapses += c.collapses;
     report.refused += c.refused;
     report.refused_crossing += c.refused_crossing;
@@ -482,7 +600,8 @@ UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSetting
     if (c.collapses == 0) break;
   }
   for (int pass = 0; settings.flips && pass < settings.max_passes; ++pass) {
-    const FlipPass f = flip_pass(surface, cell, blocked ? blockers : nullptr, blocked ? &*blocker_grid : nullptr);
+    const FlipPass f =
+        flip_pass(surface, cell, grid, blocked ? blockers : nullptr, blocked ? &*blocker_grid : nullptr);
     report.flips += f.flips;
     report.refused += f.refused_crossing;
     report.refused_crossing += f.refused_crossing;

@@ -279,5 +279,45 @@ TEST(SurfaceUpkeep, CollapsesNeverMakeTheSurfacePassThroughItself) {
   EXPECT_GT(refused_crossing, 0);
 }
 
+// Each pass hands the next its grid of the triangles and its list of short
+// edges, brought up to date for the triangles it changed instead of made
+// anew. Passes run in one call must then do what the same passes do one
+// call each (every call starts from a fresh grid and list): the same
+// surface, to the bit.
+TEST(SurfaceUpkeep, PassesKeptUpToDateDoWhatFreshPassesDo) {
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    TriangleMesh start = make_torus(1.0, 0.3, 64, 24);
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> jitter(-0.02, 0.02);
+    for (Index v = 0; v < start.num_vertices(); ++v) {
+      start.vertices(v, 0) += jitter(rng);
+      start.vertices(v, 1) += jitter(rng);
+      start.vertices(v, 2) *= 0.03;
+    }
+    for (const bool flips : {false, true}) {
+      UpkeepSettings settings;
+      settings.split_length = 100.0;  // no splits: each call's passes are collapses, then flips
+      settings.collapse_length = flips ? 0.0 : 0.06;
+      settings.flips = flips;
+      settings.max_passes = 16;
+      TriangleMesh together = start;
+      const UpkeepReport all = upkeep_surface(together, 1.0, settings);
+      EXPECT_GT(flips ? all.flips : all.collapses, 0) << "seed " << seed;
+      settings.max_passes = 1;
+      TriangleMesh apart = start;
+      Index done = 0;
+      for (int call = 0; call < 16; ++call) {
+        const UpkeepReport one = upkeep_surface(apart, 1.0, settings);
+        done += flips ? one.flips : one.collapses;
+        if ((flips ? one.flips : one.collapses) == 0) break;
+      }
+      EXPECT_EQ(done, flips ? all.flips : all.collapses) << "seed " << seed;
+      ASSERT_EQ(apart.triangles.rows(), together.triangles.rows()) << "seed " << seed;
+      EXPECT_TRUE(apart.triangles == together.triangles) << "seed " << seed << " flips " << flips;
+      EXPECT_TRUE(apart.vertices == together.vertices) << "seed " << seed << " flips " << flips;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace goo
