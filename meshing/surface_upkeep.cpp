@@ -434,6 +434,24 @@ double angle_at(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen:
   return std::atan2(u.cross(v).norm(), u.dot(v));
 }
 
+/// Whether α_c + α_d, the angles facing edge ab in the triangles (a, b, c)
+/// and (b, a, d), surely stays below π + 1e-7, from sin(α_c + α_d) =
+/// sin α_c cos α_d + cos α_c sin α_d and cos(α_c + α_d) without an angle:
+/// sin > 1e-7 puts the sum in (0, π); |sin| ≤ 1e-7 with cos < 0 within
+/// 1e-7 of π (rounding adds ~1e-15). Anything else (a sum near 0 or 2π,
+/// degenerate or non-finite corners) is left to the angles themselves.
+constexpr double kSurelyBelow = 1e-7;
+
+bool surely_below_pi(const Eigen::Vector3d& pa, const Eigen::Vector3d& pb, const Eigen::Vector3d& pc,
+                     const Eigen::Vector3d& pd) {
+  const Eigen::Vector3d uc = pa - pc, vc = pb - pc, ud = pb - pd, vd = pa - pd;
+  const double sin_c = uc.cross(vc).norm(), cos_c = uc.dot(vc), sin_d = ud.cross(vd).norm(), cos_d = ud.dot(vd);
+  const double scale = uc.norm() * vc.norm() * ud.norm() * vd.norm();
+  if (!(scale > 0.0 && scale < std::numeric_limits<double>::infinity())) return false;
+  const double sine = (sin_c * cos_d + cos_c * sin_d) / scale, cosine = (cos_c * cos_d - sin_c * sin_d) / scale;
+  return sine > kSurelyBelow || (sine > -kSurelyBelow && cosine < 0.0);
+}
+
 /// Edge flips (Delaunay in the surface): the diagonal ab of the quad of two
 /// triangles (a, b, c), (b, a, d), one of them a sliver (an angle below
 /// 15°), becomes cd where the angles facing ab sum past π, most violating
@@ -448,6 +466,7 @@ FlipPass flip_pass(TriangleMesh& s, double cell, TriangleGrid& surface_grid, con
                    const TriangleGrid* blocker_grid) {
   constexpr double kFlat = 0.1;
   constexpr double kViolation = 1e-6;  // radians past π: no flip back and forth between cocircular diagonals
+  static_assert(kSurelyBelow < kViolation, "what surely_below_pi rejects must fall short of the violation");
   constexpr double kSliver = 15.0 * std::numbers::pi / 180.0;  // a triangle with an angle this sharp is a sliver
   FlipPass out;
   const Index nt = s.num_triangles();
@@ -460,7 +479,10 @@ FlipPass flip_pass(TriangleMesh& s, double cell, TriangleGrid& surface_grid, con
         sides[3 * at(t) + at(k)] = {std::min(a, b), std::max(a, b), t, k};
       }
   });
-  tbb::parallel_sort(sides.begin(), sides.end());  // distinct (triangle, corner): one order
+  // By edge, stably: filled in (triangle, corner) order, so sorted by all four.
+  radix_sort(sides, [](const std::array<Index, 4>& side) {
+    return (static_cast<std::uint64_t>(side[0]) << 32) | static_cast<std::uint64_t>(side[1]);
+  });
   // Every edge, sorted; those a flip removes are marked, those it adds kept apart.
   std::vector<Edge> edge_list;
   edge_list.reserve(sides.size() / 2 + 1);
@@ -494,6 +516,7 @@ FlipPass flip_pass(TriangleMesh& s, double cell, TriangleGrid& surface_grid, con
         const Index d = s.triangles(t2, (k2 + 2) % 3);
         if (c == d) continue;
         const Eigen::Vector3d pa = point(s, a), pb = point(s, b), pc = point(s, c), pd = point(s, d);
+        if (surely_below_pi(pa, pb, pc, pd)) continue;  // excess < 1e-7 < kViolation
         const double excess = angle_at(pa, pb, pc) + angle_at(pb, pa, pd) - std::numbers::pi;
         if (!(excess > kViolation)) continue;
         // Only where a sliver is: a well-shaped pair is left as it is (each
