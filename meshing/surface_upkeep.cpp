@@ -28,12 +28,6 @@ using Edge = std::pair<Index, Index>;  // (min, max)
 
 Edge edge(Index a, Index b) { return a < b ? Edge{a, b} : Edge{b, a}; }
 
-struct EdgeHash {
-  std::size_t operator()(const Edge& e) const {
-    return std::hash<std::int64_t>()((static_cast<std::int64_t>(e.first) << 32) ^ e.second);
-  }
-};
-
 Eigen::Vector3d point(const TriangleMesh& s, Index v) { return s.vertices.row(v).transpose(); }
 
 double length(const TriangleMesh& s, const Edge& e) { return (point(s, e.first) - point(s, e.second)).norm(); }
@@ -79,33 +73,47 @@ std::vector<Edge> by_length(const TriangleMesh& s, std::vector<Edge> edges, bool
   return out;
 }
 
-/// The triangles at each of `edges` (triangle t has the edge at corner k → k + 1).
-std::unordered_map<Edge, std::vector<Index>, EdgeHash> edge_triangles(const TriangleMesh& s,
-                                                                     const std::vector<Edge>& edges) {
-  std::unordered_map<Edge, std::vector<Index>, EdgeHash> out;
-  out.reserve(edges.size());
-  for (const Edge& e : edges) out[e];
+/// The triangles at each of `edges` (by index; triangle t has the edge at
+/// corner k → k + 1), in increasing order: the first two and how many.
+struct EdgeTriangles {
+  std::array<Index, 2> first{-1, -1};
+  Index count = 0;
+};
+std::vector<EdgeTriangles> edge_triangles(const TriangleMesh& s, const std::vector<Edge>& edges) {
+  std::vector<std::pair<Edge, std::size_t>> sorted(edges.size());
+  for (std::size_t i = 0; i < edges.size(); ++i) sorted[i] = {edges[i], i};
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<EdgeTriangles> out(edges.size());
   for (Index t = 0; t < s.num_triangles(); ++t)
-    for (int k = 0; k < 3; ++k)
-      if (const auto it = out.find(edge(s.triangles(t, k), s.triangles(t, (k + 1) % 3))); it != out.end())
-        it->second.push_back(t);
+    for (int k = 0; k < 3; ++k) {
+      const std::pair<Edge, std::size_t> key{edge(s.triangles(t, k), s.triangles(t, (k + 1) % 3)), 0};
+      const auto it = std::lower_bound(sorted.begin(), sorted.end(), key);
+      if (it == sorted.end() || it->first != key.first) continue;
+      EdgeTriangles& slot = out[it->second];
+      if (slot.count < 2) slot.first[at(slot.count)] = t;
+      ++slot.count;
+    }
   return out;
 }
 
-Index split_pass(TriangleMesh& s, double limit) {
-  const std::vector<Edge> long_edges = edges_beyond(s, limit, true);
+/// One pass of splits over `long_edges` (the edges longer than the limit,
+/// longest first: edges_beyond), which it brings up to date for the next
+/// pass: the ones it did not split (there, and as long, still) and the
+/// long ones among the sides of the triangles it cut or added.
+Index split_pass(TriangleMesh& s, double limit, std::vector<Edge>& long_edges) {
   if (long_edges.empty()) return 0;
-  const auto triangles_of = edge_triangles(s, long_edges);
-  std::vector<std::uint8_t> touched(at(s.num_triangles()), 0);
+  const std::vector<EdgeTriangles> triangles_of = edge_triangles(s, long_edges);
+  std::vector<std::uint8_t> touched(at(s.num_triangles()), 0), split(long_edges.size(), 0);
   std::vector<Eigen::Vector3i> added;
   std::vector<Eigen::RowVector3d> new_vertices;
   Index splits = 0;
-  for (const Edge& e : long_edges) {
-    const auto& around = triangles_of.at(e);
-    if (around.size() != 2 || touched[at(around[0])] || touched[at(around[1])]) continue;
+  for (std::size_t i = 0; i < long_edges.size(); ++i) {
+    const Edge& e = long_edges[i];
+    const EdgeTriangles& around = triangles_of[i];
+    if (around.count != 2 || touched[at(around.first[0])] || touched[at(around.first[1])]) continue;
     const auto m = static_cast<Index>(s.num_vertices() + static_cast<Index>(new_vertices.size()));
     new_vertices.push_back(0.5 * (s.vertices.row(e.first) + s.vertices.row(e.second)));
-    for (const Index t : around) {
+    for (const Index t : around.first) {
       touched[at(t)] = 1;
       // Rotate t so that the split edge is (corner 0 → corner 1).
       int k = 0;
@@ -114,6 +122,7 @@ Index split_pass(TriangleMesh& s, double limit) {
       s.triangles.row(t) << a, m, c;
       added.emplace_back(m, b, c);
     }
+    split[i] = 1;
     ++splits;
   }
   if (splits == 0) return 0;
@@ -122,6 +131,16 @@ Index split_pass(TriangleMesh& s, double limit) {
   for (std::size_t i = 0; i < new_vertices.size(); ++i) s.vertices.row(nv + static_cast<Index>(i)) = new_vertices[i];
   s.triangles.conservativeResize(nt + static_cast<Index>(added.size()), 3);
   for (std::size_t i = 0; i < added.size(); ++i) s.triangles.row(nt + static_cast<Index>(i)) = added[i].transpose();
+  std::vector<Edge> next;
+  for (std::size_t i = 0; i < long_edges.size(); ++i)
+    if (!split[i]) next.push_back(long_edges[i]);
+  for (Index t = 0; t < s.num_triangles(); ++t)
+    if (t >= nt || touched[at(t)])
+      for (int k = 0; k < 3; ++k) {
+        const Edge e = edge(s.triangles(t, k), s.triangles(t, (k + 1) % 3));
+        if (length(s, e) > limit) next.push_back(e);
+      }
+  long_edges = by_length(s, std::move(next), true);
   return splits;
 }
 
@@ -600,8 +619,9 @@ UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSetting
   if (!(settings.collapse_length >= 0.0) || !(settings.split_length > 2.0 * settings.collapse_length))
     throw Error("surface upkeep: split_length must exceed twice collapse_length (or edges would flip-flop)");
   UpkeepReport report;
+  std::vector<Edge> long_edges = edges_beyond(surface, settings.split_length * h, true);
   for (int pass = 0; pass < settings.max_passes; ++pass) {
-    const Index n = split_pass(surface, settings.split_length * h);
+    const Index n = split_pass(surface, settings.split_length * h, long_edges);
     report.splits += n;
     if (n == 0) break;
   }

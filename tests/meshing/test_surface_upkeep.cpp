@@ -279,10 +279,10 @@ TEST(SurfaceUpkeep, CollapsesNeverMakeTheSurfacePassThroughItself) {
   EXPECT_GT(refused_crossing, 0);
 }
 
-// Each pass hands the next its grid of the triangles and its list of short
-// edges, brought up to date for the triangles it changed instead of made
-// anew. Passes run in one call must then do what the same passes do one
-// call each (every call starts from a fresh grid and list): the same
+// Each pass hands the next its grid of the triangles and its list of long
+// or short edges, brought up to date for the triangles it changed instead
+// of made anew. Passes run in one call must then do what the same passes do
+// one call each (every call starts from a fresh grid and lists): the same
 // surface, to the bit.
 TEST(SurfaceUpkeep, PassesKeptUpToDateDoWhatFreshPassesDo) {
   for (unsigned seed = 1; seed <= 3; ++seed) {
@@ -294,27 +294,32 @@ TEST(SurfaceUpkeep, PassesKeptUpToDateDoWhatFreshPassesDo) {
       start.vertices(v, 1) += jitter(rng);
       start.vertices(v, 2) *= 0.03;
     }
-    for (const bool flips : {false, true}) {
+    enum Kind { kSplits, kCollapses, kFlips };
+    for (const Kind kind : {kSplits, kCollapses, kFlips}) {
+      // One kind of pass at a time: the others have nothing to do.
       UpkeepSettings settings;
-      settings.split_length = 100.0;  // no splits: each call's passes are collapses, then flips
-      settings.collapse_length = flips ? 0.0 : 0.06;
-      settings.flips = flips;
+      settings.split_length = kind == kSplits ? 0.05 : 100.0;
+      settings.collapse_length = kind == kCollapses ? 0.06 : 0.0;
+      settings.flips = kind == kFlips;
       settings.max_passes = 16;
+      auto count = [&](const UpkeepReport& r) {
+        return kind == kSplits ? r.splits : kind == kCollapses ? r.collapses : r.flips;
+      };
       TriangleMesh together = start;
       const UpkeepReport all = upkeep_surface(together, 1.0, settings);
-      EXPECT_GT(flips ? all.flips : all.collapses, 0) << "seed " << seed;
+      EXPECT_GT(count(all), 0) << "seed " << seed << " kind " << kind;
       settings.max_passes = 1;
       TriangleMesh apart = start;
       Index done = 0;
       for (int call = 0; call < 16; ++call) {
-        const UpkeepReport one = upkeep_surface(apart, 1.0, settings);
-        done += flips ? one.flips : one.collapses;
-        if ((flips ? one.flips : one.collapses) == 0) break;
+        const Index one = count(upkeep_surface(apart, 1.0, settings));
+        done += one;
+        if (one == 0) break;
       }
-      EXPECT_EQ(done, flips ? all.flips : all.collapses) << "seed " << seed;
-      ASSERT_EQ(apart.triangles.rows(), together.triangles.rows()) << "seed " << seed;
-      EXPECT_TRUE(apart.triangles == together.triangles) << "seed " << seed << " flips " << flips;
-      EXPECT_TRUE(apart.vertices == together.vertices) << "seed " << seed << " flips " << flips;
+      EXPECT_EQ(done, count(all)) << "seed " << seed << " kind " << kind;
+      ASSERT_EQ(apart.triangles.rows(), together.triangles.rows()) << "seed " << seed << " kind " << kind;
+      EXPECT_TRUE(apart.triangles == together.triangles) << "seed " << seed << " kind " << kind;
+      EXPECT_TRUE(apart.vertices == together.vertices) << "seed " << seed << " kind " << kind;
     }
   }
 }
