@@ -84,8 +84,11 @@ std::vector<EdgeTriangles> edge_triangles(const TriangleMesh& s, const std::vect
   for (std::size_t i = 0; i < edges.size(); ++i) sorted[i] = {edges[i], i};
   std::sort(sorted.begin(), sorted.end());
   std::vector<EdgeTriangles> out(edges.size());
+  std::vector<std::uint8_t> end(at(s.num_vertices()), 0);  // an end of one of the edges: searched for
+  for (const Edge& e : edges) end[at(e.first)] = end[at(e.second)] = 1;
   for (Index t = 0; t < s.num_triangles(); ++t)
     for (int k = 0; k < 3; ++k) {
+      if (!end[at(s.triangles(t, k))] || !end[at(s.triangles(t, (k + 1) % 3))]) continue;
       const std::pair<Edge, std::size_t> key{edge(s.triangles(t, k), s.triangles(t, (k + 1) % 3)), 0};
       const auto it = std::lower_bound(sorted.begin(), sorted.end(), key);
       if (it == sorted.end() || it->first != key.first) continue;
