@@ -13,6 +13,7 @@
 #include "core/contact/box_pairs.h"
 #include "core/contact/ccd.h"
 #include "core/parallel.h"
+#include "core/radix_sort.h"
 #include "core/union_find.h"
 
 namespace goo {
@@ -202,20 +203,31 @@ bool SelfCollisions::update_edges(const Triangles& triangles) {
       sides.push_back({std::min(a, b), std::max(a, b), t, k});
       nv = std::max(nv, a + 1);
     }
-  std::sort(sides.begin(), sides.end());
+  // By edge, stably: filled in (triangle, corner) order, so sorted by all four.
+  radix_sort(sides, [](const std::array<Index, 4>& side) {
+    return (static_cast<std::uint64_t>(side[0]) << 32) | static_cast<std::uint64_t>(side[1]);
+  });
   edges_.clear();
-  edge_owner_.clear();
-  triangle_edges_.assign(at(nt), {});
+  std::vector<Index> edge_owner;                            // per edge, the lowest triangle holding it
+  std::vector<std::array<Index, 3>> triangle_edges(at(nt));  // per triangle, its edges (side k: corners k, k+1)
   for (std::size_t i = 0; i < sides.size(); ++i) {
     if (i == 0 || sides[i][0] != sides[i - 1][0] || sides[i][1] != sides[i - 1][1]) {
       edges_.push_back({sides[i][0], sides[i][1]});
-      edge_owner_.push_back(sides[i][2]);
+      edge_owner.push_back(sides[i][2]);
     }
-    triangle_edges_[at(sides[i][2])][at(sides[i][3])] = static_cast<Index>(edges_.size() - 1);
+    triangle_edges[at(sides[i][2])][at(sides[i][3])] = static_cast<Index>(edges_.size() - 1);
   }
-  vertex_owner_.assign(at(nv), -1);
+  std::vector<Index> vertex_owner(at(nv), -1);  // per vertex, the lowest triangle holding it
   for (Index t = nt - 1; t >= 0; --t)
-    for (int k = 0; k < 3; ++k) vertex_owner_[at(triangles(t, k))] = t;
+    for (int k = 0; k < 3; ++k) vertex_owner[at(triangles(t, k))] = t;
+  owned_.assign(at(nt), {});
+  for (Index t = 0; t < nt; ++t) {
+    Owned& own = owned_[at(t)];
+    for (int k = 0; k < 3; ++k) {
+      if (vertex_owner[at(triangles(t, k))] == t) own.vertices[own.num_vertices++] = triangles(t, k);
+      if (const Index e = triangle_edges[at(t)][at(k)]; edge_owner[at(e)] == t) own.edges[own.num_edges++] = e;
+    }
+  }
   return true;
 }
 
@@ -468,36 +480,33 @@ void SelfCollisions::expand(const Body& body, Index A0, Index B0, const Points& 
   auto keep = [&](PairKind kind, const std::array<Index, 4>& v, double& distance) {
     return !one_element(body, v) && keep_pair(kind, v, xs, thickness, distance);
   };
-  {
-    {
-      for (std::size_t side = 0; side < 2; ++side) {
-        const Index A = side == 0 ? A0 : B0, B = side == 0 ? B0 : A0;
-        const auto tri = tris.row(B);
-        for (int k = 0; k < 3; ++k) {  // A's own vertices against B
-          const Index v = tris(A, k);
-          if (vertex_owner_[at(v)] != A || tri[0] == v || tri[1] == v || tri[2] == v || !vb[at(v)].intersects(tb[at(B)]))
-            continue;
-          const std::array<Index, 4> vertices{v, tri[0], tri[1], tri[2]};
-          double distance = 0.0;
-          if (keep(PairKind::vertex_triangle, vertices, distance))
-            out.push_back({static_cast<std::uint8_t>(PairKind::vertex_triangle), vertices, distance});
-        }
-      }
-      const Index A = A0, B = B0;
-      for (const Index e : triangle_edges_[at(A)]) {  // A's own edges against B's own
-        if (edge_owner_[at(e)] != A) continue;
-        const auto& ea = edges_[at(e)];
-        for (const Index f : triangle_edges_[at(B)]) {
-          if (edge_owner_[at(f)] != B) continue;
-          const auto& eb2 = edges_[at(f)];
-          if (ea[0] == eb2[0] || ea[0] == eb2[1] || ea[1] == eb2[0] || ea[1] == eb2[1]) continue;
-          if (!eb[at(e)].intersects(eb[at(f)])) continue;
-          const std::array<Index, 4> vertices{ea[0], ea[1], eb2[0], eb2[1]};
-          double distance = 0.0;
-          if (keep(PairKind::edge_edge, vertices, distance))
-            out.push_back({static_cast<std::uint8_t>(PairKind::edge_edge), vertices, distance});
-        }
-      }
+  for (std::size_t side = 0; side < 2; ++side) {  // the vertices each owns against the other
+    const Index A = side == 0 ? A0 : B0, B = side == 0 ? B0 : A0;
+    const Owned& own = owned_[at(A)];
+    const auto tri = tris.row(B);
+    const Box3& box = tb[at(B)];
+    for (std::uint8_t k = 0; k < own.num_vertices; ++k) {
+      const Index v = own.vertices[k];
+      if (tri[0] == v || tri[1] == v || tri[2] == v || !vb[at(v)].intersects(box)) continue;
+      const std::array<Index, 4> vertices{v, tri[0], tri[1], tri[2]};
+      double distance = 0.0;
+      if (keep(PairKind::vertex_triangle, vertices, distance))
+        out.push_back({static_cast<std::uint8_t>(PairKind::vertex_triangle), vertices, distance});
+    }
+  }
+  const Owned &own_a = owned_[at(A0)], &own_b = owned_[at(B0)];
+  for (std::uint8_t i = 0; i < own_a.num_edges; ++i) {  // the edges each owns against the other's
+    const Index e = own_a.edges[i];
+    const auto& ea = edges_[at(e)];
+    for (std::uint8_t j = 0; j < own_b.num_edges; ++j) {
+      const Index f = own_b.edges[j];
+      const auto& eb2 = edges_[at(f)];
+      if (ea[0] == eb2[0] || ea[0] == eb2[1] || ea[1] == eb2[0] || ea[1] == eb2[1]) continue;
+      if (!eb[at(e)].intersects(eb[at(f)])) continue;
+      const std::array<Index, 4> vertices{ea[0], ea[1], eb2[0], eb2[1]};
+      double distance = 0.0;
+      if (keep(PairKind::edge_edge, vertices, distance))
+        out.push_back({static_cast<std::uint8_t>(PairKind::edge_edge), vertices, distance});
     }
   }
 }

@@ -204,9 +204,14 @@ class SelfCollisions {
   std::vector<std::uint8_t> waiting_;  // per group, this step: an element inverted (its own pairs wait)
   Triangles triangles_;                      // the surface the edges below belong to
   std::vector<std::array<Index, 2>> edges_;  // unique surface edges, sorted
-  std::vector<Index> edge_owner_;            // per edge, the lowest triangle holding it
-  std::vector<std::array<Index, 3>> triangle_edges_;  // per triangle, its edges (side k: corners k, k+1)
-  std::vector<Index> vertex_owner_;          // per vertex, the lowest triangle holding it
+  // Per triangle, the vertices and edges it owns (for which it is the
+  // lowest triangle holding them), in corner order: each primitive pair is
+  // found under the pair of its owners only.
+  struct Owned {
+    std::array<Index, 3> vertices{}, edges{};
+    std::uint8_t num_vertices = 0, num_edges = 0;
+  };
+  std::vector<Owned> owned_;
   std::vector<Pair> candidates_;
   std::vector<double> start_;  // per candidate, its distance at the step's start (−1: not measured)
   // Within a step, a pair measured without impact needs no measuring again
