@@ -252,20 +252,27 @@ TEST(SurfaceUpkeep, CollapsesNeverMakeTheSurfacePassThroughAnotherBody) {
 namespace goo {
 namespace {
 
+/// A torus pressed nearly flat, with random jitter: a clean surface whose
+/// two sheets lie closer than an edge.
+TriangleMesh flattened_torus(unsigned seed) {
+  TriangleMesh t = make_torus(1.0, 0.3, 64, 24);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> jitter(-0.02, 0.02);
+  for (Index v = 0; v < t.num_vertices(); ++v) {
+    t.vertices(v, 0) += jitter(rng);
+    t.vertices(v, 1) += jitter(rng);
+    t.vertices(v, 2) *= 0.03;
+  }
+  return t;
+}
+
 TEST(SurfaceUpkeep, CollapsesNeverMakeTheSurfacePassThroughItself) {
   // Tori pressed nearly flat, with random jitter: clean surfaces whose two
   // sheets lie closer than an edge, where a collapse's new fan can sweep
   // through the other sheet. Every such collapse is refused.
   Index refused_crossing = 0;
   for (unsigned seed = 1; seed <= 4; ++seed) {
-    TriangleMesh t = make_torus(1.0, 0.3, 64, 24);
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<double> jitter(-0.02, 0.02);
-    for (Index v = 0; v < t.num_vertices(); ++v) {
-      t.vertices(v, 0) += jitter(rng);
-      t.vertices(v, 1) += jitter(rng);
-      t.vertices(v, 2) *= 0.03;
-    }
+    TriangleMesh t = flattened_torus(seed);
     ASSERT_EQ(self_intersecting_pairs(t).size(), 0u) << "seed " << seed;
     UpkeepSettings settings;
     settings.split_length = 1.0;
@@ -286,14 +293,7 @@ TEST(SurfaceUpkeep, CollapsesNeverMakeTheSurfacePassThroughItself) {
 // surface, to the bit.
 TEST(SurfaceUpkeep, PassesKeptUpToDateDoWhatFreshPassesDo) {
   for (unsigned seed = 1; seed <= 3; ++seed) {
-    TriangleMesh start = make_torus(1.0, 0.3, 64, 24);
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<double> jitter(-0.02, 0.02);
-    for (Index v = 0; v < start.num_vertices(); ++v) {
-      start.vertices(v, 0) += jitter(rng);
-      start.vertices(v, 1) += jitter(rng);
-      start.vertices(v, 2) *= 0.03;
-    }
+    const TriangleMesh start = flattened_torus(seed);
     enum Kind { kSplits, kCollapses, kFlips };
     for (const Kind kind : {kSplits, kCollapses, kFlips}) {
       // One kind of pass at a time: the others have nothing to do.
