@@ -33,16 +33,15 @@ void quarter_node_sums(const NodeIncidence& incidence, const Eigen::VectorXd& pe
       [&](Index n, double sum) { out[n] = 0.25 * sum; });
 }
 
-/// out_n = Σ_{corners (e, k) of n} scale_e G_e.col(k), in the incidence's
-/// fixed order, from G's columns kept in that order (`corner_gradient`):
-/// read in sequence, not gathered from the elements.
+/// store(n, Σ_{corners (e, k) of n} scale_e G_e.col(k)) for every node, in
+/// the incidence's fixed order, from G's columns kept in that order
+/// (`corner_gradient`): read in sequence, not gathered from the elements.
+template <class Store>
 void gather_scaled_to_nodes(const NodeIncidence& incidence, const std::vector<Eigen::Vector3d>& corner_gradient,
-                            const Eigen::VectorXd& scale, Points& out) {
-  out.resize(static_cast<Index>(incidence.offsets.size() - 1), 3);
+                            const Eigen::VectorXd& scale, Store&& store) {
   sum_over_incidence(
       incidence, Eigen::Vector3d::Zero().eval(),
-      [&](Index i, Index corner) -> Eigen::Vector3d { return scale[corner / 4] * corner_gradient[at(i)]; },
-      [&](Index n, const Eigen::Vector3d& sum) { out.row(n) = sum.transpose(); });
+      [&](Index i, Index corner) -> Eigen::Vector3d { return scale[corner / 4] * corner_gradient[at(i)]; }, store);
 }
 
 /// ∂V/∂x of a tetrahedron's four corners (columns), and V = det(Ds) / 6.
@@ -197,7 +196,9 @@ void VolumeProjection::element_lambdas(const Body& body, const Eigen::VectorXd& 
 
 void VolumeProjection::transpose_product(const Body& body, const Eigen::VectorXd& lambda, Points& out) {
   element_lambdas(body, lambda);
-  gather_scaled_to_nodes(body.incidence, corner_gradient_, element_lambda_, out);
+  out.resize(body.num_nodes(), 3);
+  gather_scaled_to_nodes(body.incidence, corner_gradient_, element_lambda_,
+                         [&](Index n, const Eigen::Vector3d& sum) { out.row(n) = sum.transpose(); });
 }
 
 void VolumeProjection::free_direction(Index n, Eigen::Vector3d& y) const {
@@ -234,14 +235,11 @@ void VolumeProjection::apply(const Body& body, const Eigen::VectorXd& lambda, Ei
   const NodeIncidence& incidence = body.incidence;
   element_lambdas(body, lambda);
   direction_.resize(body.num_nodes(), 3);
-  sum_over_incidence(
-      incidence, Eigen::Vector3d::Zero().eval(),
-      [&](Index i, Index corner) -> Eigen::Vector3d { return element_lambda_[corner / 4] * corner_gradient_[at(i)]; },
-      [&](Index n, const Eigen::Vector3d& sum) {
-        Eigen::Vector3d y = sum;
-        free_direction(n, y);
-        direction_.row(n) = y.transpose();
-      });
+  gather_scaled_to_nodes(incidence, corner_gradient_, element_lambda_, [&](Index n, const Eigen::Vector3d& sum) {
+    Eigen::Vector3d y = sum;
+    free_direction(n, y);
+    direction_.row(n) = y.transpose();
+  });
   const Index ne = body.num_elements();
   element_sum_.resize(ne);
   for_each_index(ne, [&](Index e) {
