@@ -1,9 +1,14 @@
 #include "core/surface_topology.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <cstdint>
 #include <unordered_map>
 
 #include "core/parallel.h"
+#include "core/radix_sort.h"
 
 namespace goo {
 
@@ -47,6 +52,22 @@ SurfaceTopology SurfaceTopology::build(const Triangles& triangles, Index num_ver
     out.neighbour_offsets[at(v) + 1] = static_cast<Index>(out.neighbours.size());
   }
   return out;
+}
+
+std::vector<std::array<Index, 4>> sorted_sides(const Triangles& triangles) {
+  const auto nt = static_cast<Index>(triangles.rows());
+  std::vector<std::array<Index, 4>> sides(at(nt) * 3);
+  tbb::parallel_for(tbb::blocked_range<Index>(0, nt, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index t = r.begin(); t != r.end(); ++t)
+      for (int k = 0; k < 3; ++k) {
+        const Index a = triangles(t, k), b = triangles(t, (k + 1) % 3);
+        sides[3 * at(t) + at(k)] = {std::min(a, b), std::max(a, b), t, k};
+      }
+  });
+  radix_sort(sides, [](const std::array<Index, 4>& side) {
+    return (static_cast<std::uint64_t>(side[0]) << 32) | static_cast<std::uint64_t>(side[1]);
+  });
+  return sides;
 }
 
 }  // namespace goo

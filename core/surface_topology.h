@@ -1,6 +1,7 @@
 #pragma once
 // Adjacency of a closed triangle surface, built once per topology and
 // reused by every per-vertex gather (surface tension, smoothing, upkeep).
+#include <array>
 #include <vector>
 
 #include "core/types.h"
@@ -20,5 +21,12 @@ struct SurfaceTopology {
   static SurfaceTopology build(const Triangles& triangles, Index num_vertices);
   [[nodiscard]] Index num_vertices() const { return static_cast<Index>(corner_offsets.size()) - 1; }
 };
+
+/// Every side of every triangle as (min end, max end, triangle, corner k:
+/// from corner k to corner k + 1), sorted by all four: the runs of equal
+/// ends are the edges, each run's first side that of its lowest triangle.
+/// Filled in parallel and radix sorted by edge (stable over the fill's
+/// order): the same array for any thread count.
+std::vector<std::array<Index, 4>> sorted_sides(const Triangles& triangles);
 
 }  // namespace goo

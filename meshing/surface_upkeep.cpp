@@ -18,6 +18,7 @@
 #include "core/parallel.h"
 #include "core/polygon_soup.h"
 #include "core/radix_sort.h"
+#include "core/surface_topology.h"
 #include "meshing/surface_intersections.h"
 
 namespace goo {
@@ -492,18 +493,7 @@ FlipPass flip_pass(TriangleMesh& s, double cell, TriangleGrid& surface_grid, con
   FlipPass out;
   const Index nt = s.num_triangles();
   // (a, b, triangle, corner) for every side, sorted: runs of two are the interior edges.
-  std::vector<std::array<Index, 4>> sides(at(nt) * 3);
-  tbb::parallel_for(tbb::blocked_range<Index>(0, nt, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
-    for (Index t = r.begin(); t != r.end(); ++t)
-      for (int k = 0; k < 3; ++k) {
-        const Index a = s.triangles(t, k), b = s.triangles(t, (k + 1) % 3);
-        sides[3 * at(t) + at(k)] = {std::min(a, b), std::max(a, b), t, k};
-      }
-  });
-  // By edge, stably: filled in (triangle, corner) order, so sorted by all four.
-  radix_sort(sides, [](const std::array<Index, 4>& side) {
-    return (static_cast<std::uint64_t>(side[0]) << 32) | static_cast<std::uint64_t>(side[1]);
-  });
+  const std::vector<std::array<Index, 4>> sides = sorted_sides(s.triangles);
   // Every edge, sorted; those a flip removes are marked, those it adds kept apart.
   std::vector<Edge> edge_list;
   edge_list.reserve(sides.size() / 2 + 1);

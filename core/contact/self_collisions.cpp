@@ -13,7 +13,7 @@
 #include "core/contact/box_pairs.h"
 #include "core/contact/ccd.h"
 #include "core/parallel.h"
-#include "core/radix_sort.h"
+#include "core/surface_topology.h"
 #include "core/union_find.h"
 
 namespace goo {
@@ -194,19 +194,8 @@ bool SelfCollisions::update_edges(const Triangles& triangles) {
   const Index nt = static_cast<Index>(triangles.rows());
   // (a, b, triangle, corner) for every side of every triangle, sorted: runs
   // are the edges; the lowest triangle of a run owns the edge.
-  std::vector<std::array<Index, 4>> sides;
-  sides.reserve(at(nt) * 3);
-  Index nv = 0;
-  for (Index t = 0; t < nt; ++t)
-    for (int k = 0; k < 3; ++k) {
-      const Index a = triangles(t, k), b = triangles(t, (k + 1) % 3);
-      sides.push_back({std::min(a, b), std::max(a, b), t, k});
-      nv = std::max(nv, a + 1);
-    }
-  // By edge, stably: filled in (triangle, corner) order, so sorted by all four.
-  radix_sort(sides, [](const std::array<Index, 4>& side) {
-    return (static_cast<std::uint64_t>(side[0]) << 32) | static_cast<std::uint64_t>(side[1]);
-  });
+  const std::vector<std::array<Index, 4>> sides = sorted_sides(triangles);
+  const Index nv = nt > 0 ? triangles.maxCoeff() + 1 : 0;
   edges_.clear();
   std::vector<Index> edge_owner;                            // per edge, the lowest triangle holding it
   std::vector<std::array<Index, 3>> triangle_edges(at(nt));  // per triangle, its edges (side k: corners k, k+1)
