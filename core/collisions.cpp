@@ -26,6 +26,24 @@ Eigen::Vector4d distribution_weights(const Body& body, Index vertex) {
   return b / b.squaredNorm();
 }
 
+/// Whether every point Σ b_k y_k of element e, Σ b_k = 1 and each b_k in
+/// [low_k, high_k], surely lies outside a half-space, its nodes y_k at
+/// signed distances `distance` from the plane. Such a point's distance is
+/// affine in it, d = Σ b_k d_k ≥ Σ_k min(low_k d_k, high_k d_k). The margin,
+/// 10⁻⁹ of the coordinates' size (`size`, each node's largest, and the
+/// plane's offset), is far above the ~10⁻¹⁵ relative rounding of the
+/// per-vertex test, so no vertex that test would find is passed over.
+bool surely_above(const Body& body, Index e, const Eigen::Vector4d& low, const Eigen::Vector4d& high,
+                  const std::vector<double>& distance, const std::vector<double>& size, double offset) {
+  double bound = 0.0, scale = 1.0 + std::abs(offset);
+  for (int k = 0; k < 4; ++k) {
+    const std::size_t n = at(body.tets(e, k));
+    bound += std::min(low[k] * distance[n], high[k] * distance[n]);
+    scale += size[n];
+  }
+  return bound > 1e-9 * scale;
+}
+
 }  // namespace
 
 void SurfaceCollisions::index_vertices(const Body& body) {
@@ -38,6 +56,16 @@ void SurfaceCollisions::index_vertices(const Body& body) {
   vertices_.resize(at(nv));
   std::vector<Index> fill(offsets_.begin(), offsets_.end() - 1);
   for (Index s = 0; s < nv; ++s) vertices_[at(fill[at(body.embedding.parent[at(s)])]++)] = s;
+  // Per element, the range of each barycentric coordinate over its
+  // vertices (in vertex order: the embedding is read in sequence).
+  bary_low_.assign(at(ne), Eigen::Vector4d::Constant(std::numeric_limits<double>::infinity()));
+  bary_high_.assign(at(ne), Eigen::Vector4d::Constant(-std::numeric_limits<double>::infinity()));
+  for (Index s = 0; s < nv; ++s) {
+    const std::size_t e = at(body.embedding.parent[at(s)]);
+    const Eigen::Vector4d b = body.embedding.bary.row(s).transpose();
+    bary_low_[e] = bary_low_[e].cwiseMin(b);
+    bary_high_[e] = bary_high_[e].cwiseMax(b);
+  }
 }
 
 std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, const Points& x, const Points* v,
@@ -54,33 +82,55 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
     placed.push_back(o.at(t));
   }
 
-  // 1. Per element, the obstacles that may touch its surface vertices. The
+  // 1. Per element, the obstacles that may touch its surface vertices. A
+  // half-space is bounded from the nodes' distances to its plane
+  // (above_plane), measured here once per node; any other obstacle thus: the
   // element's box, widened by its own size, holds them: a vertex drifts out
   // of its parent to a barycentric coordinate of −0.2, at most 0.6 of the
   // box's extent beyond it, and moves by dt v. So does the ball around the
   // box's centre through its corners; a signed distance is 1-Lipschitz, so
   // an obstacle farther from that centre than the ball's radius touches none.
+  const Index nn = body.num_nodes();
+  node_size_.resize(at(nn));
+  node_distance_.resize(obstacles.size());
+  for (std::size_t o = 0; o < obstacles.size(); ++o)
+    if (placed[o].planar) node_distance_[o].resize(at(nn));
+  tbb::parallel_for(tbb::blocked_range<Index>(0, nn, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index n = r.begin(); n != r.end(); ++n) {
+      Eigen::Vector3d y = x.row(n).transpose();
+      if (v) y += dt * v->row(n).transpose();
+      node_size_[at(n)] = y.cwiseAbs().maxCoeff();
+      for (std::size_t o = 0; o < obstacles.size(); ++o)
+        if (placed[o].planar) node_distance_[o][at(n)] = placed[o].plane_normal.dot(y) - placed[o].plane_offset;
+    }
+  });
+  const bool all_planar = std::all_of(placed.begin(), placed.end(), [](const PlacedShape& p) { return p.planar; });
   const std::size_t words = (obstacles.size() + 63) / 64;
   near_.assign(at(ne) * words, 0);
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
     for (Index e = r.begin(); e != r.end(); ++e) {
       if (offsets_[at(e)] == offsets_[at(e) + 1] || (only && !(*only)[at(e)])) continue;
       Eigen::AlignedBox3d box;
-      for (int k = 0; k < 4; ++k) {
-        box.extend(x.row(body.tets(e, k)).transpose());
-        if (v) box.extend((x.row(body.tets(e, k)) + dt * v->row(body.tets(e, k))).transpose());
+      if (!all_planar) {
+        for (int k = 0; k < 4; ++k) {
+          box.extend(x.row(body.tets(e, k)).transpose());
+          if (v) box.extend((x.row(body.tets(e, k)) + dt * v->row(body.tets(e, k))).transpose());
+        }
+        const Eigen::Vector3d grow = Eigen::Vector3d::Constant(box.diagonal().maxCoeff());
+        box.extend(box.min() - grow).extend(box.max() + grow);
       }
-      const Eigen::Vector3d grow = Eigen::Vector3d::Constant(box.diagonal().maxCoeff());
-      box.extend(box.min() - grow).extend(box.max() + grow);
       const Eigen::Vector3d centre = box.center();
       const double radius = 0.5 * box.diagonal().norm();
       for (std::size_t o = 0; o < obstacles.size(); ++o)
-        if (bounds[o].intersects(box) && placed[o].query(centre).distance <= radius)
+        if (placed[o].planar ? !surely_above(body, e, bary_low_[at(e)], bary_high_[at(e)], node_distance_[o],
+                                             node_size_, placed[o].plane_offset)
+                             : bounds[o].intersects(box) && placed[o].query(centre).distance <= radius)
           near_[at(e) * words + o / 64] |= std::uint64_t{1} << (o % 64);
     }
   });
 
-  // 2. Every vertex against its element's near obstacles, in vertex order:
+  // 2. Every vertex against its element's near obstacles (a half-space
+  // first bounded from the nodes' distances), in vertex order:
   // the embedding's arrays are read in sequence (a fine surface has a
   // hundred vertices and more per element, and reading them element by
   // element missed the cache at every vertex).
@@ -92,10 +142,18 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
       const Index e = body.embedding.parent[at(s)];
       const std::uint64_t* mask = near_.data() + at(e) * words;
       if (std::all_of(mask, mask + words, [](std::uint64_t w) { return w == 0; })) continue;
-      Eigen::Vector3d p = vertex_value(body, x, s);
-      if (v) p += dt * vertex_value(body, *v, s);
+      const Eigen::Vector4d b = body.embedding.bary.row(s).transpose();
+      Eigen::Vector3d p;
+      bool measured = false;
       for (std::size_t o = 0; o < obstacles.size(); ++o) {
         if (!((mask[o / 64] >> (o % 64)) & 1U)) continue;
+        if (placed[o].planar && surely_above(body, e, b, b, node_distance_[o], node_size_, placed[o].plane_offset))
+          continue;
+        if (!measured) {
+          p = vertex_value(body, x, s);
+          if (v) p += dt * vertex_value(body, *v, s);
+          measured = true;
+        }
         const SignedDistance sd = placed[o].query(p);
         if (sd.distance < 0.0) chunks[chunk].push_back({e, s, static_cast<Index>(o), sd});
       }

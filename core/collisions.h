@@ -56,7 +56,8 @@ class SurfaceCollisions {
     Index obstacle;
     SignedDistance contact;
   };
-  /// Element → its surface vertices (offsets_, vertices_), for the calls of detect that follow.
+  /// Element → its surface vertices (offsets_, vertices_) and their
+  /// barycentric ranges (bary_low_, bary_high_), for the calls of detect that follow.
   void index_vertices(const Body& body);
   /// The deepest hit of every element (of those that have one, and are
   /// flagged in `only` if given), in element order.
@@ -67,6 +68,9 @@ class SurfaceCollisions {
   std::vector<std::vector<std::size_t>> colour(const Body& body, const std::vector<Hit>& hits);
 
   std::vector<Index> offsets_, vertices_;  // element → its surface vertices
+  std::vector<Eigen::Vector4d> bary_low_, bary_high_;  // per element, each coordinate's range over its vertices
+  std::vector<std::vector<double>> node_distance_;     // per half-space obstacle, per node: signed distance
+  std::vector<double> node_size_;                      // per node, its largest coordinate (absolute)
   std::vector<std::uint64_t> near_;         // per element, the obstacles near it (a bit each)
   std::vector<std::uint64_t> masks_;        // per node, colours used (two words)
 };

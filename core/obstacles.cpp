@@ -28,6 +28,11 @@ class HalfSpaceShape final : public Shape {
   SignedDistance signed_distance(const Eigen::Vector3d& p) const override { return {n_.dot(p) - offset_, n_}; }
   Eigen::AlignedBox3d bounds() const override { return unbounded(); }
   TriangleMesh boundary() const override { return {}; }
+  bool half_space(Eigen::Vector3d& normal, double& offset) const override {
+    normal = n_;
+    offset = offset_;
+    return true;
+  }
 
  private:
   Eigen::Vector3d n_;
@@ -195,6 +200,14 @@ PlacedShape Obstacle::at(double t) const {
   out.shape = shape.get();
   out.to_world = motion.transform(t);
   out.to_local = out.to_world.inverse();
+  Eigen::Vector3d n;
+  double offset = 0.0;
+  if (shape->half_space(n, offset)) {
+    // n·(R⁻¹(x − t)) ≤ offset ⇔ (R n)·x ≤ offset + (R n)·t.
+    out.planar = true;
+    out.plane_normal = out.to_world.linear() * n;
+    out.plane_offset = offset + out.plane_normal.dot(out.to_world.translation());
+  }
   return out;
 }
 

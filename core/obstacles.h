@@ -29,6 +29,10 @@ class Shape {
   /// pictures (curved shapes tessellated finely enough to look round); empty
   /// for an unbounded solid (a half-space).
   [[nodiscard]] virtual TriangleMesh boundary() const = 0;
+  /// Whether the solid is a half-space, n·p ≤ offset in its own frame (n
+  /// normalised), and then which: collision tests bound its distance over a
+  /// whole element at once (core/collisions.cpp).
+  [[nodiscard]] virtual bool half_space(Eigen::Vector3d& /*normal*/, double& /*offset*/) const { return false; }
 };
 
 /// The solid n·p ≤ offset (n is normalised): a floor has n = +z, offset = its height.
@@ -81,6 +85,10 @@ struct PlacedShape {
   Eigen::Isometry3d to_local = Eigen::Isometry3d::Identity();
   /// Signed distance and outward normal at the world point x.
   [[nodiscard]] SignedDistance query(const Eigen::Vector3d& x) const;
+  /// For a half-space, its plane in the world: the solid n·x ≤ offset.
+  bool planar = false;
+  Eigen::Vector3d plane_normal = Eigen::Vector3d::UnitZ();
+  double plane_offset = 0.0;
 };
 
 struct Obstacle {

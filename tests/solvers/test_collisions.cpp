@@ -148,6 +148,95 @@ TEST(Collisions, LaterPassesFindWhatAFullDetectionFinds) {
   EXPECT_TRUE(one_call.positions == four_calls.positions);
 }
 
+// A half-space is bounded per element from its nodes' distances and the
+// ranges of its vertices' barycentric coordinates, and per vertex from the
+// nodes' distances, before any vertex is measured: the bounds must never
+// pass over a vertex inside. With vertices drifted far out of their
+// parents (coordinates below −0.3), tilted and moving planes swept
+// through the block, one pass resolves exactly the elements a test of
+// every vertex finds inside, its deepest depth the same; the velocity
+// stage finds the deepest vertex at x + Δt v. (As embedded, the
+// coordinates' ranges are what the bound needs; drifted, the per-vertex one.)
+class HalfSpaceBounds : public ::testing::TestWithParam<double> {};
+
+TEST_P(HalfSpaceBounds, NeverPassOverAVertexInside) {
+  TriangleMesh cube = make_box({0.3, 0.3, 0.3}, 8);  // several vertices in most elements
+  cube.vertices.rowwise() += Eigen::RowVector3d(0.013, -0.007, 0.25);
+  MeshedBody meshed = mesh_body(cube, gel(), 0.1);
+  Body& body = meshed.body;
+  std::mt19937 rng(5);
+  const double spread = GetParam();
+  std::uniform_real_distribution<double> u(-0.3, 0.3), drift(-spread, spread);
+  for (Index s = 0; s < body.embedding.num_vertices(); ++s) {
+    Eigen::Vector4d b = body.embedding.bary.row(s).transpose() +
+                        Eigen::Vector4d(drift(rng), drift(rng), drift(rng), drift(rng));
+    body.embedding.bary.row(s) = (b.array() - (b.sum() - 1.0) / 4.0).matrix().transpose();
+  }
+  if (spread > 0.0) {
+    ASSERT_LT(body.embedding.bary.minCoeff(), -0.3);
+  }
+  Points v(body.num_nodes(), 3);
+  for (Index n = 0; n < body.num_nodes(); ++n) v.row(n) = Eigen::RowVector3d(u(rng), u(rng), u(rng) - 1.0);
+  const double dt = 0.02;
+  const Eigen::Vector3d normal = Eigen::Vector3d(0.2, -0.3, 1.0).normalized();
+  RigidMotion turning({RigidMotion::Key{0.0, Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity()},
+                       RigidMotion::Key{1.0, Eigen::Vector3d(0.0, 0.0, 0.1),
+                                        Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitX()))}});
+  // Each vertex's position at x + t v, as the collision stage computes it.
+  const auto at = [&](double t) {
+    Points out(body.embedding.num_vertices(), 3);
+    for (Index s = 0; s < out.rows(); ++s) {
+      const Index e = body.embedding.parent[static_cast<std::size_t>(s)];
+      Eigen::Vector3d p = Eigen::Vector3d::Zero(), q = Eigen::Vector3d::Zero();
+      for (int k = 0; k < 4; ++k) {
+        p += body.embedding.bary(s, k) * body.positions.row(body.tets(e, k)).transpose();
+        q += body.embedding.bary(s, k) * v.row(body.tets(e, k)).transpose();
+      }
+      out.row(s) = (t == 0.0 ? p : p + t * q).transpose();
+    }
+    return out;
+  };
+  int planes = 0, ahead_only = 0;
+  for (double offset = -0.1; offset < 0.45; offset += 0.02)
+    for (const RigidMotion& motion : {RigidMotion{}, turning}) {
+      SCOPED_TRACE(::testing::Message() << "offset " << offset << (motion.is_static() ? "" : ", moving"));
+      const Obstacle plane{"plane", make_half_space(normal, offset), motion, 0.0};
+      const double t = 0.5;
+      // Positions: per element, is any vertex inside; the deepest depth.
+      std::vector<char> inside(static_cast<std::size_t>(body.num_elements()), 0);
+      double deepest = 0.0;
+      const Points xs = at(0.0);
+      for (Index s = 0; s < xs.rows(); ++s) {
+        const double dist = plane.query(xs.row(s).transpose(), t).distance;
+        if (dist < 0.0) inside[static_cast<std::size_t>(body.embedding.parent[static_cast<std::size_t>(s)])] = 1;
+        deepest = std::min(deepest, dist);
+      }
+      const Index expected = static_cast<Index>(std::count(inside.begin(), inside.end(), 1));
+      SurfaceCollisions collisions;
+      if (expected > 0 && expected < body.num_elements()) {
+        ++planes;
+        Body moved = body;
+        const CollisionStats stats = collisions.resolve_positions(moved, {plane}, t, {}, 1);
+        EXPECT_EQ(stats.resolved, expected);
+        EXPECT_NEAR(stats.deepest, deepest, 1e-15);
+      }
+      // Velocities: the deepest vertex at x + Δt v (some planes reach
+      // none at x, some at x + Δt v).
+      const Points ys = at(dt);
+      double deepest_ahead = 0.0;
+      for (Index s = 0; s < ys.rows(); ++s)
+        deepest_ahead = std::min(deepest_ahead, plane.query(ys.row(s).transpose(), t).distance);
+      if (deepest_ahead < 0.0 && deepest == 0.0) ++ahead_only;
+      Points w = v;
+      EXPECT_NEAR(collisions.resolve_velocities(body, w, {plane}, t, dt, {}).deepest, deepest_ahead, 1e-15);
+    }
+  EXPECT_GE(planes, 20);
+  EXPECT_GE(ahead_only, 1);
+}
+
+// As embedded (every coordinate in [0, 1]), and drifted far out.
+INSTANTIATE_TEST_SUITE_P(Collisions, HalfSpaceBounds, ::testing::Values(0.0, 0.5));
+
 TEST(Collisions, BodyDroppedOnTheFloorComesToRestAboveIt) {
   Drop d = block();
   d.settings.max_time_step = 2.5e-3;
