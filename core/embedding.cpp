@@ -19,12 +19,15 @@ Eigen::SparseMatrix<double, Eigen::RowMajor> Embedding::operator_matrix(const Te
 }
 
 Points Embedding::surface_positions(const Tets& tets, const Points& x) const {
-  Points out(static_cast<Eigen::Index>(parent.size()), 3);
-  for (std::size_t v = 0; v < parent.size(); ++v) {
-    Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
-    for (int k = 0; k < 4; ++k) p += bary(static_cast<Eigen::Index>(v), k) * x.row(tets(parent[v], k));
-    out.row(static_cast<Eigen::Index>(v)) = p;
-  }
+  const Index nv = num_vertices();
+  Points out(nv, 3);
+  tbb::parallel_for(tbb::blocked_range<Index>(0, nv, 4 * kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index v = r.begin(); v != r.end(); ++v) {
+      Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+      for (int k = 0; k < 4; ++k) p += bary(v, k) * x.row(tets(parent[at(v)], k));
+      out.row(v) = p;
+    }
+  });
   return out;
 }
 

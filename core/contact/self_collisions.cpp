@@ -5,6 +5,7 @@
 
 #include <Eigen/SVD>
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -237,13 +238,17 @@ bool SelfCollisions::list_holds(const Points& xs0, const Points& ds) {
     mean[0].row(c) /= double(cluster_size_[at(c)]);
     mean[1].row(c) /= double(cluster_size_[at(c)]);
   }
-  for (Index v = 0; v < nv; ++v) {
-    const Index c = cluster_[at(v)];
-    const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v) - mean[0].row(c);
-    const Eigen::RowVector3d end = xs0.row(v) + ds.row(v) - list_positions_.row(v) - mean[1].row(c);
-    drift_[at(v)] = std::max(start.cwiseAbs().maxCoeff(), end.cwiseAbs().maxCoeff());
-    if (!(drift_[at(v)] <= margin_[at(v)])) return false;
-  }
+  std::atomic<bool> within{true};
+  tbb::parallel_for(tbb::blocked_range<Index>(0, nv, 4 * kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index v = r.begin(); v != r.end() && within.load(std::memory_order_relaxed); ++v) {
+      const Index c = cluster_[at(v)];
+      const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v) - mean[0].row(c);
+      const Eigen::RowVector3d end = xs0.row(v) + ds.row(v) - list_positions_.row(v) - mean[1].row(c);
+      drift_[at(v)] = std::max(start.cwiseAbs().maxCoeff(), end.cwiseAbs().maxCoeff());
+      if (!(drift_[at(v)] <= margin_[at(v)])) within.store(false, std::memory_order_relaxed);
+    }
+  });
+  if (!within.load()) return false;  // (drift_ is read only while the list holds: then all of it is set)
   for (Index a = 0; a < nc; ++a)
     for (Index b = a + 1; b < nc; ++b) {
       const double allowed = allowance_[at(a * nc + b)];
