@@ -382,8 +382,12 @@ int VolumeProjection::solve(const Body& body, const Eigen::VectorXd& rhs, double
   const Index nn = body.num_nodes();
   for (Index n = 0; n < nn; ++n)
     if (!active_[at(n)]) lambda[n] = 0.0;
-  apply(body, lambda, Ap_);
-  r_ = rhs - Ap_;
+  if (lambda.isZero(0.0)) {
+    r_ = rhs;  // A 0 = 0: the product is not needed
+  } else {
+    apply(body, lambda, Ap_);
+    r_ = rhs - Ap_;
+  }
   for (Index n = 0; n < nn; ++n)
     if (!active_[at(n)]) r_[n] = 0.0;
   // Stops when every node's residual is below target × V̄_i, or where the
