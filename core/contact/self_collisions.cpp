@@ -637,7 +637,10 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
   if (changed_.size() != at(nv) || ds_last_.rows() != nv) {
     changed_.assign(at(nv), 0.0);
   } else {
-    for (Index v = 0; v < nv; ++v) changed_[at(v)] += (ds.row(v) - ds_last_.row(v)).cwiseAbs().maxCoeff();
+    tbb::parallel_for(tbb::blocked_range<Index>(0, nv, 4 * kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+      for (Index v = r.begin(); v != r.end(); ++v)
+        changed_[at(v)] += (ds.row(v) - ds_last_.row(v)).cwiseAbs().maxCoeff();
+    });
   }
   ds_last_ = ds;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, candidates_.size(), 256),
