@@ -54,6 +54,40 @@ void BM_Collisions(benchmark::State& state) {
 }
 BENCHMARK(BM_Collisions)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+/// The floor under a puddle: the bunny body (20k tets) squashed to a tenth
+/// of its height with its lowest twentieth below the floor, so that every
+/// element is near the floor (a spread fluid's case: a floor's box and
+/// ball tests skip none). Per iteration, from the same positions: the
+/// velocity stage and the position stage (up to 4 passes). Arg: threads.
+void BM_FloorContact(benchmark::State& state) {
+  const goo::TriangleMesh* mesh = bunny();
+  if (!mesh) return state.SkipWithError("assets missing: run scripts/fetch-assets");
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(state.range(0)));
+  const double V = goo::surface_integrals(*mesh).volume;
+  goo::Material material;
+  material.min_mass_fraction = 0.1;
+  goo::MeshedBody mb = goo::mesh_body(*mesh, material, std::cbrt(12.0 * V / 20000.0));
+  goo::Body& squashed = mb.body;
+  const double bottom = squashed.surface().vertices.col(2).minCoeff();
+  squashed.positions.col(2) = bottom + 0.1 * (squashed.positions.col(2).array() - bottom);
+  const double height = squashed.surface().vertices.col(2).maxCoeff() - bottom;
+  const std::vector<goo::Obstacle> obstacles = {
+      {"floor", goo::make_half_space(Eigen::Vector3d::UnitZ(), bottom + 0.05 * height), {}, 0.5}};
+  goo::SurfaceCollisions collisions;
+  goo::Index resolved = 0;
+  goo::Body body = squashed;
+  for (auto _ : state) {
+    body.positions = squashed.positions;
+    body.velocities.rowwise() = Eigen::RowVector3d(0.2, 0.1, -1.0);
+    resolved = collisions.resolve_velocities(body, body.velocities, obstacles, 0.0, 1e-3, {}).resolved;
+    resolved += collisions.resolve_positions(body, obstacles, 0.0, {}).resolved;
+    benchmark::DoNotOptimize(body.positions.data());
+  }
+  state.counters["resolved"] = static_cast<double>(resolved);
+  state.SetItemsProcessed(state.iterations() * mb.body.embedding.num_vertices());
+}
+BENCHMARK(BM_FloorContact)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 /// Surface-tension forces on bunny00 (75k triangles). Args: form (0 area
 /// gradient, 1 the paper's), threads.
 void BM_SurfaceTension(benchmark::State& state) {
