@@ -49,6 +49,13 @@ bool surely_above(const Body& body, Index e, const Eigen::Vector4d& low, const E
 void SurfaceCollisions::index_vertices(const Body& body) {
   const Index ne = body.num_elements();
   const Index nv = body.embedding.num_vertices();
+  // The same embedding as the last call's (a step's three calls, unless the
+  // surface was smoothed or re-meshed between them): the same index.
+  if (offsets_.size() == at(ne) + 1 && indexed_parent_ == body.embedding.parent &&
+      indexed_bary_.rows() == body.embedding.bary.rows() && indexed_bary_ == body.embedding.bary)
+    return;
+  indexed_parent_ = body.embedding.parent;
+  indexed_bary_ = body.embedding.bary;
   // Element → its surface vertices (counting sort: vertices increasing).
   offsets_.assign(at(ne) + 1, 0);
   for (Index s = 0; s < nv; ++s) ++offsets_[at(body.embedding.parent[at(s)]) + 1];

@@ -69,6 +69,8 @@ class SurfaceCollisions {
 
   std::vector<Index> offsets_, vertices_;  // element → its surface vertices
   std::vector<Eigen::Vector4d> bary_low_, bary_high_;  // per element, each coordinate's range over its vertices
+  std::vector<Index> indexed_parent_;                   // the embedding those were made for
+  Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor> indexed_bary_;
   std::vector<std::vector<double>> node_distance_;     // per half-space obstacle, per node: signed distance
   std::vector<double> node_size_;                      // per node, its largest coordinate (absolute)
   std::vector<std::uint64_t> near_;         // per element, the obstacles near it (a bit each)
