@@ -1,5 +1,5 @@
-// The embedded surface at work: collisions against a mesh obstacle, surface
-// tension on the fine surface.
+// The embedded surface at work: collisions against a mesh obstacle and the
+// floor, surface tension on the fine surface.
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
@@ -25,6 +25,13 @@ const goo::TriangleMesh* bunny() {
   return mesh.num_vertices() > 0 ? &mesh : nullptr;
 }
 
+/// Bunny00 (37.7k surface vertices) embedded in about 20k elements.
+goo::MeshedBody bunny_body(const goo::TriangleMesh& mesh) {
+  goo::Material material;
+  material.min_mass_fraction = 0.1;
+  return goo::mesh_body(mesh, material, std::cbrt(12.0 * goo::surface_integrals(mesh).volume / 20000.0));
+}
+
 /// Bunny00 (37.7k surface vertices) on about 20k elements, half sunk into a
 /// triangle-mesh ball (a 64-segment sphere, 8k triangles): a velocity
 /// collision pass tests every surface vertex of every element near the ball.
@@ -33,10 +40,7 @@ void BM_Collisions(benchmark::State& state) {
   const goo::TriangleMesh* mesh = bunny();
   if (!mesh) return state.SkipWithError("assets missing: run scripts/fetch-assets");
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(state.range(0)));
-  const double V = goo::surface_integrals(*mesh).volume;
-  goo::Material material;
-  material.min_mass_fraction = 0.1;
-  const goo::MeshedBody mb = goo::mesh_body(*mesh, material, std::cbrt(12.0 * V / 20000.0));
+  const goo::MeshedBody mb = bunny_body(*mesh);
   const Eigen::AlignedBox3d box = goo::bounding_box(mesh->vertices);
   goo::TriangleMesh ball = goo::make_sphere(0.4 * box.sizes().maxCoeff(), 64);
   ball.vertices.rowwise() += box.center().transpose() - Eigen::RowVector3d(0.0, 0.0, 0.5 * box.sizes().z());
@@ -63,10 +67,7 @@ void BM_FloorContact(benchmark::State& state) {
   const goo::TriangleMesh* mesh = bunny();
   if (!mesh) return state.SkipWithError("assets missing: run scripts/fetch-assets");
   tbb::global_control threads(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(state.range(0)));
-  const double V = goo::surface_integrals(*mesh).volume;
-  goo::Material material;
-  material.min_mass_fraction = 0.1;
-  goo::MeshedBody mb = goo::mesh_body(*mesh, material, std::cbrt(12.0 * V / 20000.0));
+  goo::MeshedBody mb = bunny_body(*mesh);
   goo::Body& squashed = mb.body;
   const double bottom = squashed.surface().vertices.col(2).minCoeff();
   squashed.positions.col(2) = bottom + 0.1 * (squashed.positions.col(2).array() - bottom);
