@@ -91,7 +91,7 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
 
   // 1. Per element, the obstacles that may touch its surface vertices. A
   // half-space is bounded from the nodes' distances to its plane
-  // (above_plane), measured here once per node; any other obstacle thus: the
+  // (surely_above), measured here once per node; any other obstacle thus: the
   // element's box, widened by its own size, holds them: a vertex drifts out
   // of its parent to a barycentric coordinate of −0.2, at most 0.6 of the
   // box's extent beyond it, and moves by dt v. So does the ball around the
@@ -218,6 +218,9 @@ CollisionStats SurfaceCollisions::resolve_velocities(const Body& body, Points& v
   stats.passes = 1;
   for (const Hit& h : hits) stats.deepest = std::min(stats.deepest, h.contact.distance);
   std::vector<std::uint8_t> applied(hits.size(), 0);
+  const Index nn = body.num_nodes();
+  normal_change_.assign(at(nn), Eigen::Vector3d::Zero());
+  contact_obstacle_.assign(at(nn), -1);
   for (const auto& members : colour(body, hits)) {
     tbb::parallel_for(std::size_t{0}, members.size(), [&](std::size_t m) {
       const Hit& h = hits[members[m]];
@@ -227,20 +230,39 @@ CollisionStats SurfaceCollisions::resolve_velocities(const Body& body, Points& v
       const Eigen::Vector3d relative = vertex_value(body, v, h.vertex) - obstacle.velocity(p, t);
       const double vn = relative.dot(n);
       if (vn >= 0.0) return;  // separating already
-      // Inelastic normal response, Coulomb friction bounded by it.
-      Eigen::Vector3d dv = -vn * n;
-      const Eigen::Vector3d tangential = relative - vn * n;
-      const double speed = tangential.norm();
-      if (speed > 0.0) dv -= std::min(1.0, obstacle.friction * -vn / speed) * tangential;
+      // Inelastic normal response (W&T eq. 4's weights); each node keeps
+      // the normal change it received for its friction below.
+      const Eigen::Vector3d dv = -vn * n;
       const Eigen::Vector4d w = distribution_weights(body, h.vertex);
       for (int k = 0; k < 4; ++k) {
         const Index node = body.tets(h.element, k);
         if (!fixed.empty() && fixed[at(node)]) continue;
         v.row(node) += w[k] * dv.transpose();
+        normal_change_[at(node)] += w[k] * dv;  // one element of a colour per node: no race
+        contact_obstacle_[at(node)] = h.obstacle;
       }
       applied[members[m]] = 1;
     });
   }
+  // Coulomb friction per node: a node's tangential velocity relative to
+  // the obstacle drops by at most μ × the normal velocity change it
+  // received (along that change; of several obstacles, the last one's).
+  // Applied at each element's deepest vertex instead, it dragged an
+  // element's nodes by different amounts, and a puddle's bottom, held at
+  // one node and dragged at the next, buckled into folds
+  // (docs/benchmarks.md, session 22).
+  tbb::parallel_for(tbb::blocked_range<Index>(0, nn, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index node = r.begin(); node != r.end(); ++node) {
+      const double gain = normal_change_[at(node)].norm();
+      if (!(gain > 0.0)) continue;
+      const Obstacle& obstacle = obstacles[at(contact_obstacle_[at(node)])];
+      const Eigen::Vector3d n = normal_change_[at(node)] / gain;
+      const Eigen::Vector3d relative = v.row(node).transpose() - obstacle.velocity(body.positions.row(node).transpose(), t);
+      const Eigen::Vector3d tangential = relative - relative.dot(n) * n;
+      const double speed = tangential.norm();
+      if (speed > 0.0) v.row(node) -= std::min(1.0, obstacle.friction * gain / speed) * tangential.transpose();
+    }
+  });
   stats.resolved = static_cast<Index>(std::count(applied.begin(), applied.end(), 1));
   return stats;
 }

@@ -35,8 +35,10 @@ class SurfaceCollisions {
  public:
   /// Velocity stage, on v (the body's node velocities or v½): a vertex that
   /// would be inside an obstacle at x + dt v and approaches it loses its
-  /// normal velocity relative to the obstacle, and its tangential velocity
-  /// drops by at most μ × that change (Coulomb); Δv goes to the nodes with w_i.
+  /// normal velocity relative to the obstacle (Δv to the nodes with w_i).
+  /// Then each node that this moved loses of its tangential velocity
+  /// relative to the obstacle at most μ × the normal change it received
+  /// (Coulomb, per node).
   CollisionStats resolve_velocities(const Body& body, Points& v, const std::vector<Obstacle>& obstacles, double t,
                                     double dt, const std::vector<std::uint8_t>& fixed);
 
@@ -73,6 +75,8 @@ class SurfaceCollisions {
   Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor> indexed_bary_;
   std::vector<std::vector<double>> node_distance_;     // per half-space obstacle, per node: signed distance
   std::vector<double> node_size_;                      // per node, its largest coordinate (absolute)
+  std::vector<Eigen::Vector3d> normal_change_;          // per node, the velocity stage's normal change
+  std::vector<Index> contact_obstacle_;                 // per node, the obstacle of its last contact (−1: none)
   std::vector<std::uint64_t> near_;         // per element, the obstacles near it (a bit each)
   std::vector<std::uint64_t> masks_;        // per node, colours used (two words)
 };

@@ -110,6 +110,51 @@ TEST(Collisions, VelocityResponseRemovesApproachAndAppliesCoulombFriction) {
   EXPECT_EQ(collisions.resolve_velocities(body, v, {floor_at(0.4)}, 0.0, 0.1, {}).resolved, 0);
 }
 
+// Friction acts per node (Coulomb): every node the normal response moved
+// loses of its tangential velocity relative to the floor exactly
+// min(its tangential speed, μ × the normal change it received), along that
+// velocity; so with μ large every such node stops along the floor, and the
+// elements in contact move alike (none is held at one node and dragged at
+// the next, which folded a puddle's bottom). Friction applied at each
+// element's deepest vertex stopped that vertex, its nodes by differing
+// amounts.
+TEST(Collisions, FrictionActsPerNodeWithinCoulombsBound) {
+  TriangleMesh cube = make_box({0.3, 0.3, 0.3}, 8);
+  cube.vertices.rowwise() += Eigen::RowVector3d(0.013, -0.007, 0.25);
+  const MeshedBody meshed = mesh_body(cube, gel(), 0.1);
+  const Body& body = meshed.body;
+  const double dt = 0.01;
+  for (const double mu : {0.2, 10.0}) {
+    SCOPED_TRACE(::testing::Message() << "mu " << mu);
+    const Obstacle floor = floor_at(lowest(body) - 0.002, mu);
+    Points v(body.num_nodes(), 3);
+    v.rowwise() = Eigen::RowVector3d(1.0, 0.5, -1.0);
+    const Points before = v;
+    SurfaceCollisions collisions;
+    ASSERT_GT(collisions.resolve_velocities(body, v, {floor}, 0.0, dt, {}).resolved, 0);
+    int moved = 0, stopped = 0;
+    for (Index n = 0; n < body.num_nodes(); ++n) {
+      const Eigen::Vector3d change = (v.row(n) - before.row(n)).transpose();
+      if (change.isZero(0.0)) continue;
+      ++moved;
+      const double normal = std::abs(change.z());
+      const double speed_before = before.row(n).head<2>().norm(), speed_after = v.row(n).head<2>().norm();
+      EXPECT_NEAR(speed_before - speed_after, std::min(speed_before, mu * normal), 1e-14);
+      // Along the velocity: the direction along the floor is kept.
+      if (speed_after > 1e-14) {
+        EXPECT_NEAR(v(n, 0) * before(n, 1) - v(n, 1) * before(n, 0), 0.0, 1e-14);
+      } else {
+        ++stopped;
+      }
+    }
+    EXPECT_GE(moved, 9);
+    EXPECT_LT(moved, body.num_nodes());  // the top is not touched
+    if (mu > 1.0) {
+      EXPECT_EQ(stopped, moved);
+    }
+  }
+}
+
 struct Drop {
   MeshedBody body;
   NewmarkSettings settings;
