@@ -148,6 +148,17 @@ void VolumeProjection::weights(const Body& body) {
 void VolumeProjection::gradients(const Body& body, const Points& start) {
   const Index ne = body.num_elements();
   weights(body);
+  // The velocity projection prepares G where the force evaluation just
+  // took it (add_pressure_forces, then project_velocities at xⁿ⁺¹): the
+  // same positions, mesh and fractions give the same G.
+  if (gradient_at_.valid && gradient_at_.positions.rows() == start.rows() && gradient_at_.positions == start &&
+      gradient_at_.tets.rows() == body.tets.rows() && gradient_at_.tets == body.tets &&
+      gradient_at_.weight.size() == weight_.size() && gradient_at_.weight == weight_)
+    return;
+  gradient_at_.valid = true;
+  gradient_at_.positions = start;
+  gradient_at_.tets = body.tets;
+  gradient_at_.weight = weight_;
   gradient_.resize(at(ne));
   for_each_index(ne, [&](Index e) {
     const auto x = [&](int k) { return Eigen::Vector3d(start.row(body.tets(e, k)).transpose()); };

@@ -76,6 +76,7 @@ class VolumeProjection {
     pressure_.resize(0);
     restore_start_.resize(0);
     prepared_.valid = false;
+    gradient_at_.valid = false;
     surface_age_ = 0;
   }
 
@@ -161,6 +162,14 @@ class VolumeProjection {
   // Work arrays, kept across steps.
   std::vector<Matrix34> gradient_;  ///< ∂V_e/∂x of each element's four nodes
   std::vector<Eigen::Vector3d> corner_gradient_;  ///< the same columns in the incidence's order
+  /// Where gradient_ and corner_gradient_ were taken: positions, mesh and
+  /// the weights they include.
+  struct GradientKey {
+    bool valid = false;
+    Points positions;
+    Tets tets;
+    Eigen::VectorXd weight;
+  } gradient_at_;
   Eigen::VectorXd element_lambda_;  ///< Λ_e = ¼ Σ_k λ_{n_k}
   Eigen::VectorXd volume_, rest_, element_sum_, inverse_mass_, node_rest_, diagonal_;
   Eigen::VectorXd weight_;  ///< per element, the share of it the constraints count (φ_e: its material)

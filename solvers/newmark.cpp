@@ -59,6 +59,7 @@ void NewmarkIntegrator::evaluate_forces(Body& body, double plastic_dt) {
   damping_.freeze(body, elastic_.elastic_deformation(), elastic_.inverse_plastic_deformation());
   times_.forces += timer.lap();
   if (body.material.incompressible) volume_.add_pressure_forces(body, body.positions, forces_);
+  times_.volume += timer.lap();
   if (!has_tension(body)) return;
   // W&T sec. 7: forces on the fine surface, to the nodes with b_i (a
   // quantity: algorithms.md, "Embedding"). In vertex order: deterministic.

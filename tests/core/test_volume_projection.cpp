@@ -318,6 +318,53 @@ TEST(VolumeProjection, TheNextStepReusesThePreparationOnlyWhereNothingItReadChan
   }
 }
 
+TEST(VolumeProjection, TheVelocityProjectionReusesTheForcesGradientOnlyWhereNothingItReadChanged) {
+  // The force evaluation takes G at xⁿ⁺¹ for the carried pressures; the
+  // velocity projection at the same xⁿ⁺¹ reuses it: the same bits as a
+  // fresh projection given the same state, also where the positions, the
+  // fractions or the mesh (an element's corners renumbered by an even
+  // permutation: the same tetrahedron, its G columns in another order)
+  // changed in between.
+  enum class Change { kNothing, kPosition, kFraction, kMesh };
+  const double dt = 1e-3;
+  Points unchanged;
+  for (const Change change : {Change::kNothing, Change::kPosition, Change::kFraction, Change::kMesh}) {
+    Perturbed p = perturbed_box(0.02, 29);
+    Body& body = p.body;
+    const Index nn = body.num_nodes();
+    Points forces = Points::Zero(nn, 3);
+    VolumeProjection reused;
+    reused.project_velocities(body, {}, dt, 0.5 * dt, forces);  // carries pressures
+    reused.add_pressure_forces(body, body.positions, forces);   // G at these positions
+    switch (change) {
+      case Change::kNothing: break;
+      case Change::kPosition: body.positions(9, 0) += 1e-4; break;
+      case Change::kFraction: body.solid_fractions = Eigen::VectorXd::Constant(body.num_elements(), 0.8); break;
+      case Change::kMesh: {
+        const Eigen::Matrix<Index, 1, 4> corners = body.tets.row(11);
+        body.tets.row(11) << corners[1], corners[2], corners[0], corners[3];
+        body.incidence = NodeIncidence::build(body.tets, nn);
+        break;
+      }
+    }
+    std::mt19937 rng(31);  // the same velocities for every change, which change the volumes
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    for (Index n = 0; n < nn; ++n) body.velocities.row(n) += 0.1 * Eigen::RowVector3d(u(rng), u(rng), u(rng));
+    Body copy = body;
+    VolumeProjection fresh;
+    Points forces_copy = forces;
+    const VolumeProjectionStats a = reused.project_velocities(body, {}, dt, 0.5 * dt, forces);
+    const VolumeProjectionStats b = fresh.project_velocities(copy, {}, dt, 0.5 * dt, forces_copy);
+    EXPECT_GE(a.newton_iterations, 1) << static_cast<int>(change);
+    EXPECT_EQ(a.cg_iterations, b.cg_iterations) << static_cast<int>(change);
+    EXPECT_TRUE(body.velocities == copy.velocities) << static_cast<int>(change);
+    if (change == Change::kNothing)
+      unchanged = body.velocities;
+    else
+      EXPECT_FALSE(body.velocities == unchanged) << "the change must matter: " << static_cast<int>(change);
+  }
+}
+
 TEST(VolumeProjection, BitwiseIdenticalWithOneAndTwoThreads) {
   Points result[2];
   for (int threads = 1; threads <= 2; ++threads) {
