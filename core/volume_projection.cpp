@@ -80,6 +80,19 @@ bool any_inverted(const Body& body, const Points& x) {
 
 /// An element below this fraction of its rest volume is not constrained.
 constexpr double kCrushed = 0.1;
+/// A node carries its multiplier into the pressures only where its
+/// material's share of its elements, ¼ Σ φ_e V̄_e over ¼ Σ V̄_e, is at
+/// least this. A node with share s has a row of G M⁻¹ Gᵀ of order s against
+/// its neighbours' and a residual of order s, so its multiplier is of order
+/// 1/s of theirs: a fine correction of that step (its G column is of order
+/// s too), but summed over steps as a pressure it grows without bound
+/// (lattice nodes beside slivers of material, s down to 10⁻¹⁴ in the
+/// paper-resolution fluid drop, carried 10¹⁷ Pa, and a fluid on a ball run
+/// without restart points blew up at 0.21 s). The constraint itself stays:
+/// a node left unconstrained is flung by its neighbours' multipliers (a
+/// light node at the mass floor moved 2 m in one drift correction after a
+/// re-mesh, and the run blew up).
+constexpr double kMinMaterialShare = 0.01;
 /// The most of a node's volume the drift correction restores in one step.
 constexpr double kMaxDrift = 0.1;
 /// Projections between two measurements of the surface's volume.
@@ -236,8 +249,10 @@ void VolumeProjection::add_pressure_forces(const Body& body, const Points& x, Po
 }
 
 void VolumeProjection::carry(const Body& body, const Eigen::VectorXd& lambda, double scale) {
-  if (pressure_.size() != body.num_nodes()) pressure_ = Eigen::VectorXd::Zero(body.num_nodes());
-  pressure_ += scale * lambda;
+  const Index nn = body.num_nodes();
+  if (pressure_.size() != nn) pressure_ = Eigen::VectorXd::Zero(nn);
+  for (Index n = 0; n < nn; ++n)
+    if (node_material_[n] >= kMinMaterialShare * node_whole_[n]) pressure_[n] += scale * lambda[n];
 }
 
 // y = M⁻¹ P Gᵀλ as move() (its store fused into the gather), then per
@@ -343,6 +358,7 @@ void VolumeProjection::prepare_anew(const Body& body, const Points& at_positions
   // mesh.
   movable_.assign(at(ne), 0);
   rest_.resize(ne);
+  whole_.resize(ne);
   for_each_index(ne, [&](Index e) {
     const Matrix34& g = gradient_[at(e)];
     const Eigen::Vector3d x0 = at_positions.row(body.tets(e, 0)).transpose();
@@ -351,10 +367,16 @@ void VolumeProjection::prepare_anew(const Body& body, const Points& at_positions
     for (int k = 0; k < 4; ++k) movable = movable || inverse_mass_[body.tets(e, k)] > 0.0;
     movable = movable && V > kCrushed * weight_[e] * body.rest_volumes[e] * body.Fp[at(e)].determinant();
     movable_[at(e)] = movable ? 1 : 0;
-    rest_[e] = movable ? body.rest_volumes[e] * body.Fp[at(e)].determinant() : 0.0;
+    whole_[e] = body.rest_volumes[e] * body.Fp[at(e)].determinant();
+    rest_[e] = movable ? whole_[e] : 0.0;
   });
   quarter_node_sums(body.incidence, rest_, node_rest_);  // the tolerance's scale: whole elements
   rest_.array() *= weight_.array();
+  // The material's share of each node's elements, movable or not (a node
+  // whose elements are crushed still holds them).
+  quarter_node_sums(body.incidence, whole_, node_whole_);
+  whole_.array() *= weight_.array();
+  quarter_node_sums(body.incidence, whole_, node_material_);
   // A_ii = Σ_j |G_ij|² / m_j with G_ij = ¼ Σ_{e∋i,j} ∂V_e/∂x_j, gathered per
   // node over its elements' corners: the Jacobi preconditioner. A node is
   // constrained where its row is not zero up to round-off (Σ_e |¼ ∂V_e/∂x_j|²

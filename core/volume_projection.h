@@ -70,6 +70,10 @@ class VolumeProjection {
   /// current x: the force exerts no net force or torque.
   void add_pressure_forces(const Body& body, const Points& x, Points& forces);
 
+  /// The carried nodal pressures π, Pa (empty after reset() and before the
+  /// first projection that carries).
+  [[nodiscard]] const Eigen::VectorXd& pressures() const { return pressure_; }
+
   /// Forget the carried pressures: after this the results depend on the
   /// body's state alone (a restart point).
   void reset() {
@@ -172,6 +176,9 @@ class VolumeProjection {
   } gradient_at_;
   Eigen::VectorXd element_lambda_;  ///< Λ_e = ¼ Σ_k λ_{n_k}
   Eigen::VectorXd volume_, rest_, element_sum_, inverse_mass_, node_rest_, diagonal_;
+  /// Per element W_e det Fp_e (then × φ_e); per node ¼ Σ_{e∋i} of each:
+  /// the material's share of a node is node_material_ / node_whole_.
+  Eigen::VectorXd whole_, node_whole_, node_material_;
   Eigen::VectorXd weight_;  ///< per element, the share of it the constraints count (φ_e: its material)
   void weights(const Body& body);
   void weighted_volumes(const Body& body, const Points& positions);

@@ -118,6 +118,42 @@ TEST(VolumeProjection, ThePressureForceItCarriesIsTheImpulseItAppliedReadAsAForc
   }
 }
 
+TEST(VolumeProjection, ANodeBesideASliverOfMaterialCarriesNoPressure) {
+  // A corner node whose elements hold 10⁻⁹ of their volume in material (a
+  // lattice node beside a sliver): its row of G M⁻¹ Gᵀ is of order 10⁻⁹ of
+  // its neighbours', its multiplier of order 10⁹ of theirs. It still holds
+  // its constraint (the projection meets the tolerance), but carries no
+  // pressure, and the others carry those of the box filled everywhere to
+  // within the share's bound (kMinMaterialShare = 1%: 100×).
+  const double dt = 1e-3;
+  double filled = 0.0;
+  for (const double sliver : {1.0, 1e-9}) {
+    Perturbed p = perturbed_box(0.05, 37);
+    Body& body = p.body;
+    const Index corner = 0;
+    body.solid_fractions = Eigen::VectorXd::Ones(body.num_elements());
+    int sliver_elements = 0;
+    for (Index e = 0; e < body.num_elements(); ++e)
+      for (int k = 0; k < 4; ++k)
+        if (body.tets(e, k) == corner) body.solid_fractions[e] = sliver, ++sliver_elements;
+    ASSERT_GT(sliver_elements, 0);
+    VolumeProjection projection;
+    const VolumeProjectionStats stats = projection.project(body, p.start, {}, dt, 0.5 * dt);
+    ASSERT_GE(stats.newton_iterations, 1);
+    EXPECT_LE(stats.error, VolumeProjectionSettings{}.tolerance);
+    const Eigen::VectorXd& pressure = projection.pressures();
+    ASSERT_EQ(pressure.size(), body.num_nodes());
+    EXPECT_TRUE(pressure.allFinite());
+    if (sliver == 1.0) {
+      filled = pressure.cwiseAbs().maxCoeff();
+      EXPECT_NE(pressure[corner], 0.0);
+    } else {
+      EXPECT_EQ(pressure[corner], 0.0);
+      EXPECT_LE(pressure.cwiseAbs().maxCoeff(), 100.0 * filled);
+    }
+  }
+}
+
 TEST(VolumeProjection, VelocitiesLoseEveryVolumeChangingComponent) {
   Perturbed p = perturbed_box(0.0, 13);  // at rest shape, moving
   for (Index n = 0; n < p.body.num_nodes(); ++n) p.body.velocities.row(n) *= 1.0 + 0.5 * p.body.rest_positions(n, 0);
