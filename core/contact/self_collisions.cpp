@@ -627,10 +627,6 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
                                                            double thickness, const std::vector<Index>* zone,
                                                            const std::vector<std::uint8_t>* only,
                                                            SelfCollisionStats& stats) {
-  constexpr double kNone = -1.0;
-  std::vector<double> toi(candidates_.size(), kNone);
-  std::vector<double>& start = start_;
-  start.assign(candidates_.size(), kNone);
   // How far each vertex's displacement has changed since the step's first
   // detection, summed over detections (a bound on its change since any of them).
   const Index nv = body.embedding.num_vertices();
@@ -643,9 +639,18 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
     });
   }
   ds_last_ = ds;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, candidates_.size(), 256),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+  // Fixed runs of the list, each collecting its own findings in list order:
+  // no pass over the whole list after the parallel one.
+  constexpr std::size_t kDetectChunk = 1024;
+  const std::size_t num_chunks = (candidates_.size() + kDetectChunk - 1) / kDetectChunk;
+  if (found_.size() < num_chunks) found_.resize(num_chunks);
+  tbb::parallel_for(std::size_t{0}, num_chunks, [&](std::size_t chunk) {
+                      Found& found = found_[chunk];
+                      found.impacts.clear();
+                      found.close.clear();
+                      found.measured = found.touching = 0;
+                      const std::size_t end = std::min(candidates_.size(), (chunk + 1) * kDetectChunk);
+                      for (std::size_t i = chunk * kDetectChunk; i != end; ++i) {
                         const Pair& p = candidates_[i];
                         if (only && !((*only)[at(p.vertices[0])] || (*only)[at(p.vertices[1])] ||
                                       (*only)[at(p.vertices[2])] || (*only)[at(p.vertices[3])]))
@@ -689,20 +694,29 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
                           if (std::sqrt(3.0) * (a + b) < clearance_[i]) continue;  // still no impact: not measured
                         }
                         const ccd::Points4 x = gather(xs0, p.vertices);
-                        start[i] = ccd::closest(kind, x).distance;
-                        if (start[i] == 0.0) continue;  // touching or crossing already: left alone
-                        const double keep = start[i] > thickness ? thickness : 0.5 * start[i];
+                        const double start = ccd::closest(kind, x).distance;
+                        ++found.measured;
+                        if (start == 0.0) {  // touching or crossing already: left alone
+                          if (!zone) ++found.touching;
+                          continue;
+                        }
+                        if (start < thickness) found.close.emplace_back(i, start);
+                        const double keep = start > thickness ? thickness : 0.5 * start;
                         double clearance = 0.0;
-                        if (const auto t = ccd::time_of_impact(kind, x, gather(ds, p.vertices), keep, &clearance)) toi[i] = *t;
+                        if (const auto t = ccd::time_of_impact(kind, x, gather(ds, p.vertices), keep, &clearance))
+                          found.impacts.push_back({i, *t});
                         clearance_[i] = clearance;
                         for (std::size_t k = 0; k < 4; ++k) changed_at_[i][k] = changed_[at(p.vertices[k])];
                       }
                     });
   std::vector<Impact> impacts;
-  for (std::size_t i = 0; i < candidates_.size(); ++i) {
-    if (start[i] >= 0.0) ++stats.candidates;
-    if (start[i] == 0.0 && !zone) ++stats.touching_at_start;
-    if (toi[i] != kNone) impacts.push_back({i, toi[i]});
+  close_.clear();
+  for (std::size_t chunk = 0; chunk < num_chunks; ++chunk) {
+    const Found& found = found_[chunk];
+    stats.candidates += found.measured;
+    stats.touching_at_start += found.touching;
+    impacts.insert(impacts.end(), found.impacts.begin(), found.impacts.end());
+    close_.insert(close_.end(), found.close.begin(), found.close.end());
   }
   // One order for the impulses, whatever the list's order: by pair.
   std::sort(impacts.begin(), impacts.end(), [&](const Impact& a, const Impact& b) {
@@ -808,15 +822,14 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
 
   // Proximity: pairs closer than the thickness at the start are pushed
   // apart by a tenth of what is missing per step.
-  std::vector<std::size_t> close;
-  for (std::size_t i = 0; i < candidates_.size(); ++i)
-    if (start_[i] > 0.0 && start_[i] < thickness) close.push_back(i);
-  std::sort(close.begin(), close.end(), [&](std::size_t a, std::size_t b) {  // one order, whatever the list's
-    return std::tie(candidates_[a].kind, candidates_[a].vertices) < std::tie(candidates_[b].kind, candidates_[b].vertices);
+  std::vector<std::pair<std::size_t, double>> close = close_;  // the first detection's
+  std::sort(close.begin(), close.end(), [&](const auto& a, const auto& b) {  // one order, whatever the list's
+    return std::tie(candidates_[a.first].kind, candidates_[a.first].vertices) <
+           std::tie(candidates_[b.first].kind, candidates_[b.first].vertices);
   });
-  for (const std::size_t i : close) {
+  for (const auto& [i, start] : close) {
     const Pair& p = candidates_[i];
-    if (apply_impulse(body, p, gather(xs0, p.vertices), d, fixed, parameters.target_scale * kRepulsionFraction * (thickness - start_[i]),
+    if (apply_impulse(body, p, gather(xs0, p.vertices), d, fixed, parameters.target_scale * kRepulsionFraction * (thickness - start),
                       friction(p, parameters.friction)))
       ++stats.repulsions;
   }

@@ -213,7 +213,16 @@ class SelfCollisions {
   };
   std::vector<Owned> owned_;
   std::vector<Pair> candidates_;
-  std::vector<double> start_;  // per candidate, its distance at the step's start (−1: not measured)
+  // What one detection found in each fixed run of kDetectChunk candidates
+  // (collected in parallel, read in list order).
+  struct Found {
+    std::vector<Impact> impacts;
+    std::vector<std::pair<std::size_t, double>> close;  // (candidate, distance) closer than the thickness
+    std::int64_t measured = 0;
+    Index touching = 0;
+  };
+  std::vector<Found> found_;
+  std::vector<std::pair<std::size_t, double>> close_;  // the last detection's, in list order
   // Within a step, a pair measured without impact needs no measuring again
   // until its vertices' displacements have changed by its clearance
   // (ccd::time_of_impact): impulses move the nodes of a few pairs, and with
