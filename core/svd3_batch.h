@@ -7,8 +7,8 @@
 
 namespace goo {
 
-/// Matrices per batch: one AVX-512 register of doubles.
-inline constexpr int kSvdLanes = 8;
+/// Matrices per batch: two AVX-512 registers of doubles (simd_lanes.h).
+inline constexpr int kSvdLanes = 16;
 
 /// Component-wise storage of kSvdLanes 3×3 SVDs: F[i + 3 j][lane] is row i,
 /// column j of that lane's matrix, and likewise U and V; sigma[i][lane] is
