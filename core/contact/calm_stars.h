@@ -61,6 +61,15 @@ class CalmStars {
                                                  const std::vector<std::uint8_t>* moved,
                                                  const std::vector<Box3>& boxes);
 
+  /// The near pairs of the last update_surface (triangle ids, lower first)
+  /// and their ratios.
+  [[nodiscard]] const std::vector<std::array<Index, 2>>& near_pairs() const { return near_; }
+  [[nodiscard]] const std::vector<double>& near_ratios() const { return near_ratio_; }
+  /// Per triangle, the eligible stars holding all its corners (−1: none;
+  /// valid after update_surface): two triangles can join one group only
+  /// if they have one in common.
+  [[nodiscard]] const std::vector<std::array<Index, 4>>& candidate_stars() const { return candidates_; }
+
   /// The triangles of group n (valid after assign_groups).
   [[nodiscard]] std::vector<Index> members(Index n) const {
     return {members_.begin() + offsets_[static_cast<std::size_t>(n)],

@@ -8,10 +8,12 @@
 #include <limits>
 #include <map>
 #include <random>
+#include <set>
 
 #include <fmt/format.h>
 
 #include "core/contact/calm_stars.h"
+#include "core/contact/ccd.h"
 #include "core/elastic_forces.h"
 #include "core/parallel.h"
 #include "core/contact/self_collisions.h"
@@ -37,9 +39,11 @@ Material gel() {
 
 /// Two boxes of 0.1 m (the lower one `lower_width` wide), one above the
 /// other with a gap, in one body on a 0.04 m lattice (a gap over two lattice
-/// spacings: no element holds both).
-Body stacked_boxes(double gap, double lower_width = 0.1) {
-  TriangleMesh a = make_box({lower_width, lower_width, 0.1}, 4), b = make_box({0.1, 0.1, 0.1}, 4);
+/// spacings: no element holds both); each face split into `subdivisions`²
+/// squares.
+Body stacked_boxes(double gap, double lower_width = 0.1, int subdivisions = 4) {
+  TriangleMesh a = make_box({lower_width, lower_width, 0.1}, subdivisions),
+               b = make_box({0.1, 0.1, 0.1}, subdivisions);
   b.vertices.col(2).array() += 0.1 + gap;
   TriangleMesh both;
   both.vertices.resize(a.num_vertices() * 2, 3);
@@ -441,6 +445,97 @@ TEST(SelfCollisions, ACalmGroupListsOnlyItsNearPairsThatItsSpreadReaches) {
   }
   EXPECT_LT(listed[0], listed[1]);
   EXPECT_LT(listed[1], listed[2]);
+}
+
+/// D / d of a triangle pair as the calm stars define it, measured for
+/// every primitive pair (no bound): the largest over the pairs that share
+/// no vertex and do not lie in one element; 0 if there are none.
+double exact_pair_ratio(const Body& body, const Points& rest, Index a, Index b) {
+  const Triangles& tris = body.surface_triangles;
+  const auto& parent = body.embedding.parent;
+  double ratio = 0.0;
+  auto consider = [&](ccd::PairKind kind, const std::array<Index, 4>& v, std::size_t first) {
+    const Index e = parent[at(v[0])];
+    if (parent[at(v[1])] == e && parent[at(v[2])] == e && parent[at(v[3])] == e) return;
+    for (std::size_t i = 0; i < 4; ++i)
+      for (std::size_t j = i + 1; j < 4; ++j)
+        if (v[i] == v[j]) return;
+    ccd::Points4 x;
+    for (std::size_t k = 0; k < 4; ++k) x[k] = rest.row(v[k]).transpose();
+    double D = 0.0;
+    for (std::size_t i = 0; i < first; ++i)
+      for (std::size_t j = first; j < 4; ++j) D = std::max(D, (x[i] - x[j]).norm());
+    const double d = ccd::closest(kind, x).distance;
+    ratio = std::max(ratio, d > 0.0 ? D / d : std::numeric_limits<double>::infinity());
+  };
+  for (const auto& [p, q] : {std::pair{a, b}, std::pair{b, a}})
+    for (int k = 0; k < 3; ++k) consider(ccd::PairKind::vertex_triangle, {tris(p, k), tris(q, 0), tris(q, 1), tris(q, 2)}, 1);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      consider(ccd::PairKind::edge_edge, {tris(a, i), tris(a, (i + 1) % 3), tris(b, j), tris(b, (j + 1) % 3)}, 2);
+  return ratio;
+}
+
+TEST(CalmStars, TheNearPairsAreExactlyThoseWithAPrimitivePairAboveTheRatio) {
+  // Every pair of triangles that can join one group (a candidate star in
+  // common, not both within one element), measured in full: the near
+  // pairs are those whose ratio exceeds kRatio, with that ratio to the bit.
+  // update_surface measures only the pairs its grown boxes find, and of
+  // those only the primitive pairs a bound cannot clear: this fails if the
+  // boxes miss a near pair or the bound clears one.
+  for (const double gap : {0.004, 0.02}) {
+    SCOPED_TRACE(gap);
+    Body body = stacked_boxes(gap, 0.1, 12);
+    const Index nt = static_cast<Index>(body.surface_triangles.rows());
+    std::vector<Index> element_of(at(nt));
+    for (Index t = 0; t < nt; ++t) {
+      const Index e = body.embedding.parent[at(body.surface_triangles(t, 0))];
+      element_of[at(t)] = body.embedding.parent[at(body.surface_triangles(t, 1))] == e &&
+                                  body.embedding.parent[at(body.surface_triangles(t, 2))] == e
+                              ? e
+                              : -1;
+    }
+    CalmStars stars;
+    stars.update_mesh(body);
+    stars.update_surface(body, element_of);
+    std::map<std::array<Index, 2>, double> found;
+    for (std::size_t i = 0; i < stars.near_pairs().size(); ++i) found[stars.near_pairs()[i]] = stars.near_ratios()[i];
+    const Points rest = body.embedding.surface_positions(body.tets, body.rest_positions);
+    std::map<Index, std::vector<Index>> by_star;
+    for (Index t = 0; t < nt; ++t)
+      for (const Index n : stars.candidate_stars()[at(t)])
+        if (n >= 0) by_star[n].push_back(t);
+    std::set<std::array<Index, 2>> pairs;
+    for (const auto& [n, members] : by_star)
+      for (std::size_t i = 0; i < members.size(); ++i)
+        for (std::size_t j = i + 1; j < members.size(); ++j) {
+          const Index a = members[i], b = members[j];
+          if (element_of[at(a)] >= 0 && element_of[at(a)] == element_of[at(b)]) continue;
+          pairs.insert({std::min(a, b), std::max(a, b)});
+        }
+    std::size_t near = 0, missed = 0, wrong = 0;
+    for (const auto& pair : pairs) {
+      const double ratio = exact_pair_ratio(body, rest, pair[0], pair[1]);
+      const auto it = found.find(pair);
+      if (!(ratio <= CalmStars::kRatio)) {
+        ++near;
+        if (it == found.end()) {
+          ++missed;
+        } else if (!(it->second == ratio || (std::isinf(ratio) && std::isinf(it->second)))) {
+          ++wrong;
+        }
+      } else if (it != found.end()) {
+        ++wrong;
+      }
+    }
+    EXPECT_GT(pairs.size(), 10000u);
+    EXPECT_EQ(missed, 0u);
+    EXPECT_EQ(wrong, 0u);
+    EXPECT_EQ(found.size(), near);
+    if (gap == 0.004) {
+      EXPECT_GT(near, 100u);  // the facing sheets' pairs
+    }
+  }
 }
 
 TEST(SelfCollisions, ABodyWithAnInvertedElementIsLeftToTurnBack) {
