@@ -17,11 +17,15 @@ NodeIncidence NodeIncidence::build(const Tets& tets, Index num_nodes) {
     for (int k = 0; k < 4; ++k) ++inc.offsets[static_cast<std::size_t>(tets(e, k)) + 1];
   for (std::size_t n = 0; n < static_cast<std::size_t>(num_nodes); ++n) inc.offsets[n + 1] += inc.offsets[n];
   inc.corners.resize(static_cast<std::size_t>(4 * tets.rows()));
+  inc.slots.resize(inc.corners.size());
   std::vector<Index> fill(inc.offsets.begin(), inc.offsets.end() - 1);
   // Elements in increasing order, so each node's corners are sorted.
   for (Index e = 0; e < tets.rows(); ++e)
-    for (int k = 0; k < 4; ++k)
-      inc.corners[static_cast<std::size_t>(fill[static_cast<std::size_t>(tets(e, k))]++)] = 4 * e + k;
+    for (int k = 0; k < 4; ++k) {
+      const Index slot = fill[static_cast<std::size_t>(tets(e, k))]++;
+      inc.corners[static_cast<std::size_t>(slot)] = 4 * e + k;
+      inc.slots[static_cast<std::size_t>(4 * e + k)] = slot;
+    }
   return inc;
 }
 

@@ -17,6 +17,10 @@ namespace goo {
 struct NodeIncidence {
   std::vector<Index> offsets;  ///< #N+1; corners of node n are [offsets[n], offsets[n+1])
   std::vector<Index> corners;  ///< 4 #E entries, 4 e + k
+  /// 4 #E entries: where corner 4 e + k is in `corners`. A pass over the
+  /// elements that writes its corner values there leaves each node's values
+  /// contiguous, in the order its sum takes them.
+  std::vector<Index> slots;
 
   static NodeIncidence build(const Tets& tets, Index num_nodes);
 };

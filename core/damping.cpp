@@ -43,7 +43,10 @@ void Damping::check_frozen(const Body& body) const {
 void Damping::apply(const Body& body, const Points& v, Points& out) {
   const Index ne = body.num_elements();
   check_frozen(body);
-  element_forces_.resize(at(ne));
+  const NodeIncidence& incidence = body.incidence;
+  if (incidence.slots.size() != 4 * at(ne))
+    throw Error("damping: the body's node incidence is not that of its elements");
+  corner_forces_.resize(4 * at(ne));
   const SimdLevel level = active_simd_level();
   const auto blocks = static_cast<Index>(blocks_.size());
   tbb::parallel_for(tbb::blocked_range<Index>(0, blocks, kParallelGrain / kDampingLanes),
@@ -58,14 +61,15 @@ void Damping::apply(const Body& body, const Points& v, Points& out) {
                             for (int i = 0; i < 3; ++i) lanes.v[c][i][lane] = v(node, i);
                           }
                         damping_block(blocks_[at(b)], lanes, level);
-                        for (int lane = 0; lane < count; ++lane) {
-                          Matrix34& f = element_forces_[at(first + lane)];
-                          for (int c = 0; c < 4; ++c)
-                            for (int i = 0; i < 3; ++i) f(i, c) = lanes.f[c][i][lane];
-                        }
+                        // Written where each node's sum reads them, in sequence.
+                        for (int lane = 0; lane < count; ++lane)
+                          for (int c = 0; c < 4; ++c) {
+                            Eigen::Vector3d& f = corner_forces_[at(incidence.slots[at(4 * (first + lane) + c)])];
+                            for (int i = 0; i < 3; ++i) f[i] = lanes.f[c][i][lane];
+                          }
                       }
                     });
-  gather_to_nodes(body.incidence, element_forces_, out);
+  sum_slots_to_nodes(incidence, corner_forces_, out);
 }
 
 void Damping::apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,

@@ -49,7 +49,8 @@ class Damping {
  private:
   /// Throws unless frozen for a body of this many elements.
   void check_frozen(const Body& body) const;
-  std::vector<Matrix34> element_forces_;
+  /// Each corner's force, at its place in the incidence (NodeIncidence::slots).
+  std::vector<Eigen::Vector3d> corner_forces_;
   const std::vector<Eigen::Matrix3d>* Fe_ = nullptr;  ///< as frozen
   std::size_t frozen_elements_ = 0;                   ///< elements of the body frozen for
   /// Fe, A = Dm⁻¹ Fp⁻¹ and the scale 2β W det Fp as frozen, eight elements a

@@ -1,4 +1,5 @@
 #include "core/elastic_forces.h"
+#include "core/error.h"
 #include "core/parallel.h"
 
 #include <tbb/blocked_range.h>
@@ -28,7 +29,10 @@ void gather_to_nodes(const NodeIncidence& incidence, const std::vector<Matrix34>
 
 void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Points& f) {
   const Index ne = body.num_elements();
-  element_forces_.resize(at(ne));
+  const NodeIncidence& incidence = body.incidence;
+  if (incidence.slots.size() != 4 * at(ne))
+    throw Error("elastic forces: the body's node incidence is not that of its elements");
+  corner_forces_.resize(4 * at(ne));
   Fe_.resize(at(ne));
   Fp_inv_.resize(at(ne));
   element_dt_squared_.resize(at(ne));
@@ -100,14 +104,15 @@ void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Poi
       force_batch_forces(b, level);
       for (int lane = 0; lane < lanes; ++lane) {
         const Index e = first + lane;
-        Matrix34& forces = element_forces_[at(e)];
-        for (int c = 0; c < 4; ++c)
-          for (int i = 0; i < 3; ++i) forces(i, c) = b.f[c][i][lane];
+        for (int c = 0; c < 4; ++c) {
+          Eigen::Vector3d& force = corner_forces_[at(incidence.slots[at(4 * e + c)])];
+          for (int i = 0; i < 3; ++i) force[i] = b.f[c][i][lane];
+        }
         for (int k = 0; k < 9; ++k) Fe_[at(e)].data()[k] = b.Fe[k][lane];
       }
     }
   });
-  gather_to_nodes(body.incidence, element_forces_, f);
+  sum_slots_to_nodes(incidence, corner_forces_, f);
   // min and counting are exact in any order. The root of the least ratio is
   // the least root (√ is correctly rounded and monotonic): one square root
   // instead of one an element.

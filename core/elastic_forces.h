@@ -40,7 +40,8 @@ class ElasticForces {
   void set_simd_level(SimdLevel level) { simd_level_ = level; }
 
  private:
-  std::vector<Matrix34> element_forces_;
+  /// Each corner's force, at its place in the incidence (NodeIncidence::slots).
+  std::vector<Eigen::Vector3d> corner_forces_;
   std::vector<Eigen::Matrix3d> Fe_;
   std::vector<Eigen::Matrix3d> Fp_inv_;
   std::vector<double> element_dt_squared_;  ///< m_min / k_e per element

@@ -37,4 +37,16 @@ void sum_over_corners(const NodeIncidence& incidence, const T& zero, Value&& val
       incidence, zero, [&](Index, Index corner) { return value(corner); }, store);
 }
 
+/// out.row(n) = 0 + values[i₁] + values[i₂] + … over node n's places i in
+/// the incidence, in order: per-corner values that a pass over the elements
+/// wrote at their places (NodeIncidence::slots), so each node reads its own
+/// in sequence. Bit for bit the sums of gathering them corner by corner.
+inline void sum_slots_to_nodes(const NodeIncidence& incidence, const std::vector<Eigen::Vector3d>& values,
+                               Points& out) {
+  out.resize(static_cast<Index>(incidence.offsets.size() - 1), 3);
+  sum_over_incidence(
+      incidence, Eigen::Vector3d::Zero().eval(), [&](Index slot, Index) { return values[at(slot)]; },
+      [&](Index n, const Eigen::Vector3d& sum) { out.row(n) = sum.transpose(); });
+}
+
 }  // namespace goo

@@ -173,19 +173,15 @@ void VolumeProjection::gradients(const Body& body, const Points& start) {
   gradient_at_.tets = body.tets;
   gradient_at_.weight = weight_;
   gradient_.resize(at(ne));
-  for_each_index(ne, [&](Index e) {
-    const auto x = [&](int k) { return Eigen::Vector3d(start.row(body.tets(e, k)).transpose()); };
-    volume_gradient(x(0), x(1), x(2), x(3), gradient_[at(e)]);
-    gradient_[at(e)] *= weight_[e];
-  });
-  // The same columns in the incidence's order, for the node sums.
+  // The same columns also in the incidence's order, for the node sums.
   const NodeIncidence& incidence = body.incidence;
   corner_gradient_.resize(incidence.corners.size());
-  for_each_index(static_cast<Index>(incidence.offsets.size() - 1), [&](Index n) {
-    for (Index i = incidence.offsets[at(n)]; i < incidence.offsets[at(n) + 1]; ++i) {
-      const Index corner = incidence.corners[at(i)];
-      corner_gradient_[at(i)] = gradient_[at(corner / 4)].col(corner % 4);
-    }
+  for_each_index(ne, [&](Index e) {
+    const auto x = [&](int k) { return Eigen::Vector3d(start.row(body.tets(e, k)).transpose()); };
+    Matrix34& g = gradient_[at(e)];
+    volume_gradient(x(0), x(1), x(2), x(3), g);
+    g *= weight_[e];
+    for (int k = 0; k < 4; ++k) corner_gradient_[at(incidence.slots[at(4 * e + k)])] = g.col(k);
   });
 }
 

@@ -211,6 +211,20 @@ TEST(Body, LumpedMassesAndIncidence) {
   EXPECT_NEAR(body.rest_volumes.sum(), 1.0, 1e-14);
   EXPECT_EQ(body.incidence.corners.size(), 4U * static_cast<std::size_t>(body.num_elements()));
   for (Index e = 0; e < body.num_elements(); ++e) EXPECT_GT(body.rest_volumes[e], 0.0);
+  // Each node's corners increasing, and slots their inverse: the place of
+  // corner 4e + k is within node tets(e, k)'s range and holds that corner.
+  const NodeIncidence& inc = body.incidence;
+  ASSERT_EQ(inc.slots.size(), inc.corners.size());
+  for (Index n = 0; n < body.num_nodes(); ++n)
+    for (Index i = inc.offsets[at(n)] + 1; i < inc.offsets[at(n) + 1]; ++i)
+      EXPECT_LT(inc.corners[at(i - 1)], inc.corners[at(i)]);
+  for (Index e = 0; e < body.num_elements(); ++e)
+    for (int k = 0; k < 4; ++k) {
+      const Index slot = inc.slots[at(4 * e + k)];
+      EXPECT_EQ(inc.corners[at(slot)], 4 * e + k);
+      EXPECT_GE(slot, inc.offsets[at(body.tets(e, k))]);
+      EXPECT_LT(slot, inc.offsets[at(body.tets(e, k)) + 1]);
+    }
 }
 
 TEST(Damping, AFrozenOperatorIsRefusedForABodyItWasNotFrozenFor) {
@@ -228,6 +242,12 @@ TEST(Damping, AFrozenOperatorIsRefusedForABodyItWasNotFrozenFor) {
   Body bigger = make_cube(ElasticModel::fixed_corotated, 3);
   EXPECT_TRUE(test::throws_error_containing([&] { damping.apply(bigger, Points::Zero(bigger.num_nodes(), 3), out); },
                                             "not frozen"));
+  // Both passes write each corner's force at its place in the incidence:
+  // one that is not the elements' is refused, not written past.
+  Body stale = body;
+  stale.incidence = NodeIncidence::build(bigger.tets, bigger.num_nodes());
+  EXPECT_TRUE(test::throws_error_containing([&] { damping.apply(stale, v, out); }, "node incidence"));
+  EXPECT_TRUE(test::throws_error_containing([&] { forces.evaluate(stale, stale.positions, 0.0, f); }, "node incidence"));
 }
 
 // The operator runs eight elements at a time in vector lanes; each lane must
