@@ -114,6 +114,10 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
   const bool all_planar = std::all_of(placed.begin(), placed.end(), [](const PlacedShape& p) { return p.planar; });
   const std::size_t words = (obstacles.size() + 63) / 64;
   near_.assign(at(ne) * words, 0);
+  if (!all_planar) {
+    centre_.resize(at(ne));
+    centre_distance_.resize(at(ne) * obstacles.size());
+  }
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
     for (Index e = r.begin(); e != r.end(); ++e) {
       if (offsets_[at(e)] == offsets_[at(e) + 1] || (only && !(*only)[at(e)])) continue;
@@ -128,11 +132,19 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
       }
       const Eigen::Vector3d centre = box.center();
       const double radius = 0.5 * box.diagonal().norm();
-      for (std::size_t o = 0; o < obstacles.size(); ++o)
-        if (placed[o].planar ? !surely_above(body, e, bary_low_[at(e)], bary_high_[at(e)], node_distance_[o],
-                                             node_size_, placed[o].plane_offset)
-                             : bounds[o].intersects(box) && placed[o].query(centre).distance <= radius)
-          near_[at(e) * words + o / 64] |= std::uint64_t{1} << (o % 64);
+      if (!all_planar) centre_[at(e)] = centre;
+      for (std::size_t o = 0; o < obstacles.size(); ++o) {
+        bool near = false;
+        if (placed[o].planar) {
+          near = !surely_above(body, e, bary_low_[at(e)], bary_high_[at(e)], node_distance_[o], node_size_,
+                               placed[o].plane_offset);
+        } else if (bounds[o].intersects(box)) {
+          const double d = placed[o].query(centre).distance;
+          centre_distance_[at(e) * obstacles.size() + o] = d;
+          near = d <= radius;
+        }
+        if (near) near_[at(e) * words + o / 64] |= std::uint64_t{1} << (o % 64);
+      }
     }
   });
 
@@ -160,6 +172,15 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
           p = vertex_value(body, x, s);
           if (v) p += dt * vertex_value(body, *v, s);
           measured = true;
+        }
+        if (!placed[o].planar) {
+          // 1-Lipschitz: sd(p) ≥ sd(c) − |p − c| from the element's centre c,
+          // so a vertex nearer c than c is to the obstacle is outside it
+          // (with a margin far above the rounding of either distance).
+          const double d = centre_distance_[at(e) * obstacles.size() + o];
+          const Eigen::Vector3d& c = centre_[at(e)];
+          const double margin = 1e-9 * (c.cwiseAbs().maxCoeff() + std::abs(d));
+          if (d > margin && (p - c).squaredNorm() < (d - margin) * (d - margin)) continue;
         }
         const SignedDistance sd = placed[o].query(p);
         if (sd.distance < 0.0) chunks[chunk].push_back({e, s, static_cast<Index>(o), sd});

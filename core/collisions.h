@@ -78,6 +78,8 @@ class SurfaceCollisions {
   std::vector<Eigen::Vector3d> normal_change_;          // per node, the velocity stage's normal change
   std::vector<Index> contact_obstacle_;                 // per node, the obstacle of its last contact (−1: none)
   std::vector<std::uint64_t> near_;         // per element, the obstacles near it (a bit each)
+  std::vector<Eigen::Vector3d> centre_;     // per element, the centre of its grown box (curved obstacles)
+  std::vector<double> centre_distance_;     // per element and obstacle, its signed distance from centre_ (where near)
   std::vector<std::uint64_t> masks_;        // per node, colours used (two words)
 };
 
