@@ -1,4 +1,5 @@
 #pragma once
+#include <array>
 // The paper's time integrator (Wojtan & Turk 2008, sec. 3; Bridson et al.
 // 2003): elastic forces explicit, damping implicit, one elastic force
 // evaluation per step, variable time step (algorithms.md, "Time integration").
@@ -38,7 +39,7 @@ class NewmarkIntegrator final : public Integrator {
   void invalidate() override {
     have_forces_ = false;
     volume_.reset();
-    increment_.resize(0, 3);  // no warm start: the next steps depend on the body's state alone
+    for (Points& last : last_solutions_) last.resize(0, 3);  // no warm start: the next steps depend on the body's state alone
   }
 
   /// The time step the next step would take if unlimited by max_dt.
@@ -54,8 +55,9 @@ class NewmarkIntegrator final : public Integrator {
   /// tension mapped to the nodes with the barycentric weights.
   void evaluate_forces(Body& body, double plastic_dt);
   void apply_gravity_and_forces(const Body& body, const Points& v, double half_dt, Points& rhs) const;
-  /// Solves (M + h C) v = rhs for the free nodes, v fixed at constrained ones.
-  void solve_damped(const Body& body, double h, const Points& rhs, Points& v, StepReport& status);
+  /// Solves (M + h C) v = rhs for the free nodes, v fixed at constrained
+  /// ones; `half` is the step's first (0, v½) or second (1, vⁿ⁺¹) solve.
+  void solve_damped(const Body& body, double h, const Points& rhs, Points& v, StepReport& status, int half);
   /// solve_damped's CG on a right-hand side scaled to about unit size.
   void remove_net_residual(const Body& body, const Points& r, Points& v) const;
   void solve_scaled(const Body& body, double h, const Points& rhs, const Points* guess, Points& v, StepReport& status);
@@ -91,7 +93,8 @@ class NewmarkIntegrator final : public Integrator {
   std::vector<unsigned char> constrained_;
   // CG work arrays, kept across steps.
   Points r_, z_, p_, Ap_, Cp_;
-  Points increment_;  // the last damping solve's v − v_start (the next one's warm start)
+  /// Each half step's last damping solution, m/s (the next step's warm start for that half).
+  std::array<Points, 2> last_solutions_;
   std::vector<Eigen::Matrix3d> blocks_;  // C's diagonal blocks at the recorded Fe (fresh while blocks_fresh_)
   std::vector<Eigen::Matrix3d> inverse_blocks_;  // the solve's preconditioner (m I + h C_nn)⁻¹
   bool blocks_fresh_ = false;
