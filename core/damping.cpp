@@ -44,8 +44,7 @@ void Damping::apply(const Body& body, const Points& v, Points& out) {
   const Index ne = body.num_elements();
   check_frozen(body);
   const NodeIncidence& incidence = body.incidence;
-  if (incidence.slots.size() != 4 * at(ne))
-    throw Error("damping: the body's node incidence is not that of its elements");
+  require_slots(incidence, ne, "damping");
   corner_forces_.resize(4 * at(ne));
   const SimdLevel level = active_simd_level();
   const auto blocks = static_cast<Index>(blocks_.size());

@@ -1,5 +1,4 @@
 #include "core/elastic_forces.h"
-#include "core/error.h"
 #include "core/parallel.h"
 
 #include <tbb/blocked_range.h>
@@ -30,8 +29,7 @@ void gather_to_nodes(const NodeIncidence& incidence, const std::vector<Matrix34>
 void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Points& f) {
   const Index ne = body.num_elements();
   const NodeIncidence& incidence = body.incidence;
-  if (incidence.slots.size() != 4 * at(ne))
-    throw Error("elastic forces: the body's node incidence is not that of its elements");
+  require_slots(incidence, ne, "elastic forces");
   corner_forces_.resize(4 * at(ne));
   Fe_.resize(at(ne));
   Fp_inv_.resize(at(ne));

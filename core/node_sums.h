@@ -6,7 +6,10 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <string>
+
 #include "core/body.h"
+#include "core/error.h"
 #include "core/parallel.h"
 
 namespace goo {
@@ -35,6 +38,13 @@ template <class T, class Value, class Store>
 void sum_over_corners(const NodeIncidence& incidence, const T& zero, Value&& value, Store&& store) {
   sum_over_incidence(
       incidence, zero, [&](Index, Index corner) { return value(corner); }, store);
+}
+
+/// Throws unless the incidence's slots are those of `num_elements`
+/// elements: a pass that writes at them must not write past its buffer.
+inline void require_slots(const NodeIncidence& incidence, Index num_elements, const char* pass) {
+  if (incidence.slots.size() != 4 * at(num_elements))
+    throw Error(std::string(pass) + ": the body's node incidence is not that of its elements");
 }
 
 /// out.row(n) = 0 + values[i₁] + values[i₂] + … over node n's places i in

@@ -83,7 +83,7 @@ class CylinderShape final : public Shape {
   CylinderShape(double radius, double half_height) : radius_(radius), half_height_(half_height) {}
   SignedDistance signed_distance(const Eigen::Vector3d& p) const override {
     // √(x² + y²), not std::hypot: glibc's guards against overflow cost
-    // several times as much (a tenth of the armadillo grate's run went to
+    // several times as much (4% of the armadillo grate's profile went to
     // it), and coordinates here are metres.
     const double r = std::sqrt(p.x() * p.x() + p.y() * p.y());
     const Eigen::Vector3d radial = r > 0.0 ? Eigen::Vector3d(p.x() / r, p.y() / r, 0.0) : Eigen::Vector3d::UnitX();

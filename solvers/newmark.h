@@ -1,8 +1,9 @@
 #pragma once
-#include <array>
 // The paper's time integrator (Wojtan & Turk 2008, sec. 3; Bridson et al.
 // 2003): elastic forces explicit, damping implicit, one elastic force
 // evaluation per step, variable time step (algorithms.md, "Time integration").
+#include <array>
+
 #include "core/body.h"
 #include "core/collisions.h"
 #include "core/contact/self_collisions.h"
