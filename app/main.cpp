@@ -12,6 +12,7 @@
 #include "app/run_command.h"
 #include "core/error.h"
 #include "core/log.h"
+#include "core/memory_budget.h"
 
 #ifndef GOO_VERSION
 #error "GOO_VERSION must be defined by the build"
@@ -57,6 +58,9 @@ int main(int argc, char** argv) {
   // A file-size limit (ulimit -f) reached is a write that fails (EFBIG),
   // reported naming the file like a full disk, not a process killed.
   std::signal(SIGXFSZ, SIG_IGN);
+  // Re-meshes allocate and free the same buffers again and again: kept in
+  // the process, not faulted in afresh each time (core/memory_budget.h).
+  goo::keep_freed_memory();
   CLI::App app{"goo: viscoelastic and viscoplastic materials with thin features", "goo"};
   app.set_version_flag("--version", std::string("goo ") + GOO_VERSION);
   app.require_subcommand(0, 1);

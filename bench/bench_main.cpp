@@ -5,9 +5,11 @@
 #include <cstdio>
 
 #include "core/error.h"
+#include "core/memory_budget.h"
 #include "core/svd3_batch.h"
 
 int main(int argc, char** argv) {
+  goo::keep_freed_memory();  // as goo does: re-meshes reuse their buffers
   // The vector width comes from GOO_SIMD: a value it does not know is
   // refused here, as `goo` refuses it, before any benchmark runs.
   try {

@@ -1,6 +1,7 @@
 #include "core/memory_budget.h"
 
 #include <fmt/format.h>
+#include <malloc.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -47,6 +48,14 @@ std::uint64_t parse_limit(const std::string& text) {
 }
 
 }  // namespace
+
+void keep_freed_memory() {
+#if defined(__GLIBC__)
+  // The largest mmap threshold glibc accepts (HEAP_MAX_SIZE / 2 on 64-bit).
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+#endif
+}
 
 std::uint64_t memory_limit_bytes() {
   if (const char* text = std::getenv("GOO_MEMORY_LIMIT"); text != nullptr) return parse_limit(text);

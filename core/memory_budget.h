@@ -14,6 +14,16 @@ namespace goo {
 /// not a size.
 [[nodiscard]] std::uint64_t memory_limit_bytes();
 
+/// Keeps the memory this process frees for its next allocations instead of
+/// handing it back to the system (glibc's malloc: blocks up to 32 MB from
+/// the heap, whose free top is kept up to 1 GB). A re-mesh allocates and
+/// frees the same tens of megabytes each time, and a page fresh from the
+/// system costs about 11 µs on the 2-vCPU machine of docs/benchmarks.md:
+/// `BM_Remesh/0/20` took 161 ms a re-mesh with glibc's defaults and 129 ms
+/// with this. The goo command and goo_bench call it first thing; results do
+/// not depend on it. Does nothing with another allocator (the sanitizers').
+void keep_freed_memory();
+
 /// "12.3 GB": a byte count for messages.
 [[nodiscard]] std::string format_bytes(double bytes);
 

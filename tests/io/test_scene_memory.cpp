@@ -5,8 +5,11 @@
 
 #include <fmt/format.h>
 
+#include <malloc.h>
+
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <optional>
 
 #include "core/memory_budget.h"
@@ -122,6 +125,44 @@ TEST(SceneMemory, TheShippedScenesFitInTwoGigabytes) {
     EXPECT_NO_THROW(io::read_scene(entry.path()));
   }
 }
+
+#if defined(__GLIBC__) && !defined(__SANITIZE_ADDRESS__)
+struct HeldBlock {
+  std::size_t mapped_growth;  ///< bytes mapped for blocks of their own, held minus before
+  std::size_t heap_shrink;    ///< heap bytes held minus after the free
+};
+
+/// A block of `bytes` allocated, written to and freed again (through a
+/// volatile pointer: the pair is not elided), and what glibc did for it.
+HeldBlock hold_and_free(std::size_t bytes) {
+  static void* (*volatile allocate)(std::size_t) = std::malloc;
+  const struct mallinfo2 before = mallinfo2();
+  auto* block = static_cast<unsigned char*>(allocate(bytes));
+  EXPECT_NE(block, nullptr);
+  std::memset(block, 1, bytes);
+  const struct mallinfo2 held = mallinfo2();
+  std::free(block);
+  const struct mallinfo2 after = mallinfo2();
+  return {held.hblkhd > before.hblkhd ? held.hblkhd - before.hblkhd : 0,
+          held.arena > after.arena ? held.arena - after.arena : 0};
+}
+
+TEST(SceneMemory, FreedMemoryIsKeptForTheNextAllocations) {
+  // With glibc's initial settings a 16 MB block is mapped for itself (and
+  // unmapped when freed); after keep_freed_memory() it comes from the heap,
+  // which does not shrink when it is freed.
+  constexpr std::size_t kBlock = std::size_t{16} << 20;
+  mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+  mallopt(M_TRIM_THRESHOLD, 128 * 1024);
+  EXPECT_GE(hold_and_free(kBlock).mapped_growth, kBlock);
+  keep_freed_memory();
+  for (int round = 0; round < 2; ++round) {
+    const HeldBlock kept = hold_and_free(kBlock);
+    EXPECT_EQ(kept.mapped_growth, 0u);
+    EXPECT_EQ(kept.heap_shrink, 0u);
+  }
+}
+#endif
 
 }  // namespace
 }  // namespace goo
