@@ -19,8 +19,8 @@ namespace goo {
 /// the heap, whose free top is kept up to 1 GB). A re-mesh allocates and
 /// frees the same tens of megabytes each time, and a page fresh from the
 /// system costs about 11 µs on the 2-vCPU machine of docs/benchmarks.md:
-/// `BM_Remesh/0/20` took 161 ms a re-mesh with glibc's defaults and 129 ms
-/// with this. The goo command and goo_bench call it first thing; results do
+/// `BM_Remesh/0/20` took 167 and 162 ms a re-mesh with glibc's defaults and
+/// 129 and 128 ms with this (medians of 5, two rounds). The goo command and goo_bench call it first thing; results do
 /// not depend on it. Does nothing with another allocator (the sanitizers').
 void keep_freed_memory();
 
