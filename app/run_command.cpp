@@ -194,14 +194,16 @@ nlohmann::json to_json(const DampingSolveStats& d) {
           {"unconverged", d.unconverged}};
 }
 
-nlohmann::json to_json(const SurfaceQuality& q) {
+nlohmann::json to_json(const SurfaceQuality& q, const FacingSheets& facing) {
   return {{"triangles", q.triangles},
           {"edges", q.edges},
           {"self_intersecting_pairs", q.self_intersecting_pairs},
           {"creased_edges", q.creased_edges},
           {"degenerate_triangles", q.degenerate_triangles},
           {"area", q.area},
-          {"volume", q.volume}};
+          {"volume", q.volume},
+          {"facing_sheets_area", facing.area},
+          {"facing_sheets_triangles", facing.triangles}};
 }
 
 struct Outputs {
@@ -211,11 +213,18 @@ struct Outputs {
   double seconds = 0.0;          ///< writing frames
   double quality_seconds = 0.0;  ///< measuring them
   SurfaceQuality quality;        ///< of the last frame written
+  FacingSheets facing;           ///< of the last frame written, each body's surface within its lattice spacing
 
   void write_frame(int frame, const Simulation& sim) {
     const TriangleMesh surface = sim.surface();
     const auto measured = Clock::now();
     quality = measure_surface_quality(surface);
+    facing = FacingSheets{};
+    for (const auto& b : sim.bodies()) {  // a re-mesh glues sheets of one body only (docs/lattice.md)
+      const FacingSheets own = facing_sheets(b.body.surface(), b.h);
+      facing.area += own.area;
+      facing.triangles += own.triangles;
+    }
     quality_seconds += seconds_since(measured);
     const auto start = Clock::now();
     const fs::path frames = folder / "frames";
@@ -411,7 +420,7 @@ class Run {
   Run(const RunOptions& options, const Scene& scene, Simulation& sim, const fs::path& folder, int frame,
       int last_frame, const SimulationTotals& initial)
       : options_(options), scene_(scene), sim_(sim), folder_(folder), frame_(frame), first_frame_(frame),
-        last_frame_(last_frame), initial_(initial), outputs_{folder, &scene.output, nullptr, 0.0, 0.0, {}},
+        last_frame_(last_frame), initial_(initial), outputs_{folder, &scene.output, nullptr, 0.0, 0.0, {}, {}},
         progress_(options.quiet, frame, last_frame) {}
 
   /// The output folder, run.h5, and frame 0 unless resuming.
@@ -429,7 +438,7 @@ class Run {
     }
     if (!resuming) written([&] { outputs_.write_frame(0, sim_); });
     // Frame 0's surface (a resumed run wrote it before).
-    initial_surface_ = resuming ? nlohmann::json(nullptr) : to_json(outputs_.quality);
+    initial_surface_ = resuming ? nlohmann::json(nullptr) : to_json(outputs_.quality, outputs_.facing);
   }
 
   /// 3. Frames. Each frame boundary is a restart point, so a checkpoint
@@ -589,7 +598,7 @@ class Run {
                           {"safety_checks", st.safety - stages_before_.safety},
                           {"frames_output", outputs_.seconds - output_before},
                           {"surface_quality", outputs_.quality_seconds - quality_before}}},
-                        {"surface", to_json(outputs_.quality)},
+                        {"surface", to_json(outputs_.quality, outputs_.facing)},
                         {"self_collisions", to_json(sim_.self_collision_totals(), self_before_)},
                         {"volume_projection", to_json(sim_.take_frame_volume_stats())},
                         {"damping_solve", to_json(sim_.take_frame_damping_stats())},

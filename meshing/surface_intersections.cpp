@@ -242,4 +242,70 @@ SurfaceQuality measure_surface_quality(const TriangleMesh& mesh) {
   return q;
 }
 
+FacingSheets facing_sheets(const TriangleMesh& mesh, double gap) {
+  FacingSheets out;
+  const Index nt = mesh.num_triangles();
+  if (nt == 0 || !(gap > 0.0) || !std::isfinite(gap)) return out;
+  std::vector<Vec3> centre(at(nt)), normal(at(nt));
+  std::vector<double> area(at(nt));
+  for (Index t = 0; t < nt; ++t) {
+    const std::array<Vec3, 3> p = corner_points(mesh, t);
+    centre[at(t)] = (p[0] + p[1] + p[2]) / 3.0;
+    normal[at(t)] = (p[1] - p[0]).cross(p[2] - p[0]);
+    area[at(t)] = 0.5 * normal[at(t)].norm();
+  }
+  // Centroids binned on a grid of cell `gap`: a pair closer than the gap
+  // lies in neighbouring cells. Cells sorted by key, so each triangle finds
+  // its neighbours' ranges by binary search.
+  Vec3 low = centre[0], high = centre[0];
+  for (const Vec3& c : centre) low = low.cwiseMin(c), high = high.cwiseMax(c);
+  if (!low.allFinite() || !high.allFinite()) return out;
+  // Cells at least gap wide, and at most 2¹⁹ of them along an axis.
+  const double side = std::max(gap, (high - low).maxCoeff() / double{1 << 19});
+  auto cell_of = [&](const Vec3& c) -> Eigen::Vector3i {
+    return ((c - low) / side).array().floor().cast<int>();
+  };
+  constexpr std::int64_t kSide = 1 << 20;
+  auto key_of = [&](const Eigen::Vector3i& cell) {
+    return (std::int64_t{cell.x()} * kSide + cell.y()) * kSide + cell.z();
+  };
+  std::vector<std::pair<std::int64_t, Index>> binned(at(nt));
+  for (Index t = 0; t < nt; ++t) binned[at(t)] = {key_of(cell_of(centre[at(t)])), t};
+  std::sort(binned.begin(), binned.end());
+  std::vector<std::uint8_t> faces(at(nt), 0);
+  const double gap2 = gap * gap;
+  tbb::parallel_for(tbb::blocked_range<Index>(0, nt, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
+    for (Index s = range.begin(); s != range.end(); ++s) {
+      const Vec3 &cs = centre[at(s)], &ns = normal[at(s)];
+      const Eigen::Vector3i cell = cell_of(cs);
+      bool found = false;
+      for (int dx = -1; dx <= 1 && !found; ++dx)
+        for (int dy = -1; dy <= 1 && !found; ++dy)
+          for (int dz = -1; dz <= 1 && !found; ++dz) {
+            const std::int64_t key = key_of(cell + Eigen::Vector3i(dx, dy, dz));
+            auto it = std::lower_bound(binned.begin(), binned.end(), std::pair<std::int64_t, Index>{key, -1});
+            for (; it != binned.end() && it->first == key && !found; ++it) {
+              const Index t = it->second;
+              if (t == s) continue;
+              const Vec3 d = centre[at(t)] - cs;
+              if (d.squaredNorm() >= gap2) continue;
+              const Vec3& nt_ = normal[at(t)];
+              if (!(ns.dot(nt_) < -0.5 * ns.norm() * nt_.norm()) || !(d.dot(ns) > 0.0) || !(d.dot(nt_) < 0.0)) continue;
+              bool shared = false;
+              for (int i = 0; i < 3; ++i)
+                for (int j = 0; j < 3; ++j) shared = shared || mesh.triangles(s, i) == mesh.triangles(t, j);
+              found = !shared;
+            }
+          }
+      faces[at(s)] = found ? 1 : 0;
+    }
+  });
+  for (Index t = 0; t < nt; ++t)  // in triangle order: the same sum for any thread count
+    if (faces[at(t)]) {
+      out.area += area[at(t)];
+      ++out.triangles;
+    }
+  return out;
+}
+
 }  // namespace goo

@@ -53,4 +53,20 @@ struct SurfaceQuality {
 /// The quality measurements of a surface (valid indices required).
 SurfaceQuality measure_surface_quality(const TriangleMesh& mesh);
 
+/// Where one closed surface faces itself across a narrow gap of air: the
+/// places a re-mesh of lattice spacing about `gap` puts two sheets of the
+/// body into shared elements (docs/lattice.md, "Re-meshing"). Triangle s
+/// faces triangle t when they share no vertex, their centroids are less
+/// than `gap` apart, their normals point more than 120° apart, and each
+/// centroid lies on the outer side of the other's plane, (c_t − c_s) · n_s > 0
+/// and (c_s − c_t) · n_t > 0: air between them, not material (the two sides
+/// of a thin sheet face away from each other). Returns the total area of the
+/// triangles that face at least one other, m², and their number. Parallel
+/// over TBB; the same bits for any thread count.
+struct FacingSheets {
+  double area = 0.0;
+  Index triangles = 0;
+};
+FacingSheets facing_sheets(const TriangleMesh& mesh, double gap);
+
 }  // namespace goo

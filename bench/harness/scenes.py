@@ -54,6 +54,7 @@ def run_section(ctx):
         row["min_volume_ratio"] = min(q["volume"] for q in surfaces) / surfaces[0]["volume"]
         row["max_volume_ratio"] = max(q["volume"] for q in surfaces) / surfaces[0]["volume"]
         row["last_volume_ratio"] = surfaces[-1]["volume"] / surfaces[0]["volume"]
+        row["max_facing_percent"] = max(100.0 * q.get("facing_sheets_area", 0.0) / q["area"] for q in surfaces)
         rows.append(row)
         for record in s["per_frame"]:
             q = record["surface"]
@@ -63,6 +64,7 @@ def run_section(ctx):
                               "crossing_pairs": q["self_intersecting_pairs"],
                               "creased_percent": 100.0 * q["creased_edges"] / max(1, q["edges"]),
                               "volume_ratio": q["volume"] / surfaces[0]["volume"],
+                              "facing_percent": 100.0 * q.get("facing_sheets_area", 0.0) / q["area"],
                               **{f"{k}_seconds": v for k, v in split(record["stages"], record["integrate_stages"],
                                                                      record["remesh_stages"]).items()}})
     write_json(ctx.path("scenes.json"), {"scenes": rows, "per_frame": per_frame})
@@ -81,7 +83,7 @@ def run_section(ctx):
         ("surface_triangles", "triangles (end)", "{}"), ("peak_memory_mb", "peak MB", "{:.0f}"),
         ("max_crossing_pairs", "crossing pairs (max)", "{}"), ("max_creased_percent", "creased % (max)", "{:.2f}"),
         ("min_volume_ratio", "volume (lowest)", "{:.3f}"), ("max_volume_ratio", "volume (highest)", "{:.3f}"),
-        ("last_volume_ratio", "volume (last)", "{:.3f}")],
+        ("last_volume_ratio", "volume (last)", "{:.3f}"), ("max_facing_percent", "facing sheets % (max)", "{:.1f}")],
         "Example scenes: where the wall time goes (% of wall)")
 
 

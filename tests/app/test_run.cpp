@@ -99,6 +99,8 @@ TEST(GooRun, FramesAndSummaryOfAFreelyMovingCubeAreExact) {
     EXPECT_EQ(surface["creased_edges"], 0);  // the box's edges are at 90°, not past it
     EXPECT_NEAR(surface["volume"].get<double>(), 1e-3, 1e-16);
     EXPECT_NEAR(surface["area"].get<double>(), 0.06, 1e-15);
+    EXPECT_EQ(surface["facing_sheets_triangles"], 0);  // a convex box faces nothing
+    EXPECT_EQ(surface["facing_sheets_area"], 0.0);
     steps += per_frame[k]["steps"].get<long>();
     integrate += per_frame[k]["stages"]["integrate"].get<double>();
   }

@@ -207,5 +207,73 @@ TEST(SurfaceQuality, SameAnswerOnOneAndTwoThreads) {
   EXPECT_EQ(one, two);
 }
 
+TriangleMesh joined(const TriangleMesh& a, const TriangleMesh& b) {
+  TriangleMesh both;
+  both.vertices.resize(a.num_vertices() + b.num_vertices(), 3);
+  both.vertices << a.vertices, b.vertices;
+  both.triangles.resize(a.num_triangles() + b.num_triangles(), 3);
+  both.triangles << a.triangles, b.triangles.array() + a.num_vertices();
+  return both;
+}
+
+TEST(FacingSheets, TwoBoxesFaceEachOtherAcrossANarrowGap) {
+  // Unit cubes one above the other, 0.1 apart: the lower one's top and the
+  // upper one's bottom (area 1 each, 32 triangles each, each triangle 0.1
+  // from its twin) face each other; no other face does (the sides are
+  // parallel or perpendicular to them).
+  const TriangleMesh lower = make_box({1, 1, 1}, 4);
+  TriangleMesh upper = lower;
+  upper.vertices.col(2).array() += 1.1;
+  const FacingSheets near = facing_sheets(joined(lower, upper), 0.3);
+  EXPECT_EQ(near.triangles, 64);
+  EXPECT_NEAR(near.area, 2.0, 1e-12);
+  // Farther apart than the gap: nothing.
+  upper.vertices.col(2).array() += 0.4;
+  const FacingSheets far = facing_sheets(joined(lower, upper), 0.3);
+  EXPECT_EQ(far.triangles, 0);
+  EXPECT_EQ(far.area, 0.0);
+}
+
+TEST(FacingSheets, AThinSlabIsMaterialBetweenItsSidesNotAGap) {
+  // Its top and bottom are 0.05 apart with opposed normals, but each lies
+  // on the inner side of the other: material between them, not air.
+  EXPECT_EQ(facing_sheets(make_box({1, 1, 0.05}, 8), 0.3).triangles, 0);
+  EXPECT_EQ(facing_sheets(make_sphere(1.0, 24), 0.5).triangles, 0);  // convex: faces nothing
+}
+
+TEST(FacingSheets, OnlyGapsNarrowerThanTheThresholdCount) {
+  // Two uprights side by side, 0.1 apart, standing 0.25 above a base: their
+  // inner faces (1 × 1 each) face each other within 0.2; their bottoms face
+  // the base's top too, but 0.25 away.
+  const TriangleMesh base = make_box({2.1, 1, 0.5}, 4);
+  TriangleMesh left = make_box({1, 1, 1}, 4), right = left;
+  left.vertices.col(0).array() -= 0.55;
+  right.vertices.col(0).array() += 0.55;
+  left.vertices.col(2).array() += 1.0;
+  right.vertices.col(2).array() += 1.0;
+  const FacingSheets fold = facing_sheets(joined(joined(base, left), right), 0.2);
+  EXPECT_EQ(fold.triangles, 64);
+  EXPECT_NEAR(fold.area, 2.0, 1e-12);
+}
+
+TEST(FacingSheets, SameBitsOnOneAndTwoThreads) {
+  const TriangleMesh lower = make_box({1, 1, 1}, 12);
+  TriangleMesh upper = make_sphere(0.7, 40);
+  upper.vertices.col(2).array() += 1.25;
+  const TriangleMesh both = joined(lower, upper);
+  FacingSheets one, two;
+  {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    one = facing_sheets(both, 0.2);
+  }
+  {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+    two = facing_sheets(both, 0.2);
+  }
+  ASSERT_GT(one.triangles, 0);
+  EXPECT_EQ(one.triangles, two.triangles);
+  EXPECT_EQ(one.area, two.area);
+}
+
 }  // namespace
 }  // namespace goo
