@@ -4,9 +4,11 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <tuple>
 #include <utility>
 
 #include "core/contact/box_pairs.h"
@@ -246,62 +248,79 @@ FacingSheets facing_sheets(const TriangleMesh& mesh, double gap) {
   FacingSheets out;
   const Index nt = mesh.num_triangles();
   if (nt == 0 || !(gap > 0.0) || !std::isfinite(gap)) return out;
-  std::vector<Vec3> centre(at(nt)), normal(at(nt));
+  struct Entry {
+    std::int64_t key;
+    Vec3 centre, unit_normal;
+    Index triangle;
+  };
+  std::vector<Entry> entries(at(nt));
   std::vector<double> area(at(nt));
+  Vec3 low = Vec3::Constant(std::numeric_limits<double>::infinity()), high = -low;
   for (Index t = 0; t < nt; ++t) {
     const std::array<Vec3, 3> p = corner_points(mesh, t);
-    centre[at(t)] = (p[0] + p[1] + p[2]) / 3.0;
-    normal[at(t)] = (p[1] - p[0]).cross(p[2] - p[0]);
-    area[at(t)] = 0.5 * normal[at(t)].norm();
+    Entry& e = entries[at(t)];
+    e.centre = (p[0] + p[1] + p[2]) / 3.0;
+    const Vec3 n = (p[1] - p[0]).cross(p[2] - p[0]);
+    area[at(t)] = 0.5 * n.norm();
+    e.unit_normal = area[at(t)] > 0.0 ? Vec3(n / (2.0 * area[at(t)])) : Vec3::Zero();  // no area: faces nothing
+    e.triangle = t;
+    low = low.cwiseMin(e.centre), high = high.cwiseMax(e.centre);
   }
-  // Centroids binned on a grid of cell `gap`: a pair closer than the gap
-  // lies in neighbouring cells. Cells sorted by key, so each triangle finds
-  // its neighbours' ranges by binary search.
-  Vec3 low = centre[0], high = centre[0];
-  for (const Vec3& c : centre) low = low.cwiseMin(c), high = high.cwiseMax(c);
   if (!low.allFinite() || !high.allFinite()) return out;
-  // Cells at least gap wide, and at most 2¹⁹ of them along an axis.
+  // Centroids binned on a grid of cells at least `gap` wide (and at most
+  // 2¹⁹ along an axis): a pair closer than the gap lies in one cell or two
+  // neighbouring ones. Each pair of cells is visited once, from the cell
+  // with the lower key, and marks both triangles when they face.
   const double side = std::max(gap, (high - low).maxCoeff() / double{1 << 19});
-  auto cell_of = [&](const Vec3& c) -> Eigen::Vector3i {
-    return ((c - low) / side).array().floor().cast<int>();
-  };
   constexpr std::int64_t kSide = 1 << 20;
-  auto key_of = [&](const Eigen::Vector3i& cell) {
-    return (std::int64_t{cell.x()} * kSide + cell.y()) * kSide + cell.z();
-  };
-  std::vector<std::pair<std::int64_t, Index>> binned(at(nt));
-  for (Index t = 0; t < nt; ++t) binned[at(t)] = {key_of(cell_of(centre[at(t)])), t};
-  std::sort(binned.begin(), binned.end());
-  std::vector<std::uint8_t> faces(at(nt), 0);
+  auto cell_of = [&](const Vec3& c) -> Eigen::Vector3i { return ((c - low) / side).array().floor().cast<int>(); };
+  auto key_of = [&](const Eigen::Vector3i& c) { return (std::int64_t{c.x()} * kSide + c.y()) * kSide + c.z(); };
+  for (Entry& e : entries) e.key = key_of(cell_of(e.centre));
+  std::sort(entries.begin(), entries.end(),
+            [](const Entry& a, const Entry& b) { return std::tie(a.key, a.triangle) < std::tie(b.key, b.triangle); });
+  std::vector<std::size_t> cells;  // where each cell's run of entries starts
+  for (std::size_t i = 0; i < entries.size(); ++i)
+    if (i == 0 || entries[i].key != entries[i - 1].key) cells.push_back(i);
+  cells.push_back(entries.size());
   const double gap2 = gap * gap;
-  tbb::parallel_for(tbb::blocked_range<Index>(0, nt, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
-    for (Index s = range.begin(); s != range.end(); ++s) {
-      const Vec3 &cs = centre[at(s)], &ns = normal[at(s)];
-      const Eigen::Vector3i cell = cell_of(cs);
-      bool found = false;
-      for (int dx = -1; dx <= 1 && !found; ++dx)
-        for (int dy = -1; dy <= 1 && !found; ++dy)
-          for (int dz = -1; dz <= 1 && !found; ++dz) {
+  // s faces t: normals more than 120° apart, each centroid on the outer
+  // side of the other's plane (air between them), closer than the gap, and
+  // no shared vertex. The cheapest tests first.
+  auto face = [&](const Entry& a, const Entry& b) {
+    if (!(a.unit_normal.dot(b.unit_normal) < -0.5)) return false;
+    const Vec3 d = b.centre - a.centre;
+    if (!(d.dot(a.unit_normal) > 0.0) || !(d.dot(b.unit_normal) < 0.0) || !(d.squaredNorm() < gap2)) return false;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        if (mesh.triangles(a.triangle, i) == mesh.triangles(b.triangle, j)) return false;
+    return true;
+  };
+  std::vector<std::atomic<std::uint8_t>> faces(at(nt));  // set to 1 only: the same for any order
+  const std::size_t num_cells = cells.size() - 1;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, num_cells, 16), [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t c = range.begin(); c != range.end(); ++c) {
+      const Eigen::Vector3i cell = cell_of(entries[cells[c]].centre);
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dz = -1; dz <= 1; ++dz) {
             const std::int64_t key = key_of(cell + Eigen::Vector3i(dx, dy, dz));
-            auto it = std::lower_bound(binned.begin(), binned.end(), std::pair<std::int64_t, Index>{key, -1});
-            for (; it != binned.end() && it->first == key && !found; ++it) {
-              const Index t = it->second;
-              if (t == s) continue;
-              const Vec3 d = centre[at(t)] - cs;
-              if (d.squaredNorm() >= gap2) continue;
-              const Vec3& nt_ = normal[at(t)];
-              if (!(ns.dot(nt_) < -0.5 * ns.norm() * nt_.norm()) || !(d.dot(ns) > 0.0) || !(d.dot(nt_) < 0.0)) continue;
-              bool shared = false;
-              for (int i = 0; i < 3; ++i)
-                for (int j = 0; j < 3; ++j) shared = shared || mesh.triangles(s, i) == mesh.triangles(t, j);
-              found = !shared;
-            }
+            if (key < entries[cells[c]].key) continue;  // visited from that cell
+            const auto first = std::lower_bound(cells.begin(), cells.end() - 1, key,
+                                                [&](std::size_t at_entry, std::int64_t k) { return entries[at_entry].key < k; });
+            if (first == cells.end() - 1 || entries[*first].key != key) continue;
+            const std::size_t begin = *first, end = *(first + 1);
+            const bool same = key == entries[cells[c]].key;
+            for (std::size_t i = cells[c]; i != cells[c + 1]; ++i)
+              for (std::size_t j = same ? i + 1 : begin; j != end; ++j)
+                if (face(entries[i], entries[j])) {
+                  faces[at(entries[i].triangle)].store(1, std::memory_order_relaxed);
+                  faces[at(entries[j].triangle)].store(1, std::memory_order_relaxed);
+                }
           }
-      faces[at(s)] = found ? 1 : 0;
     }
   });
   for (Index t = 0; t < nt; ++t)  // in triangle order: the same sum for any thread count
-    if (faces[at(t)]) {
+    if (faces[at(t)].load(std::memory_order_relaxed) != 0) {
       out.area += area[at(t)];
       ++out.triangles;
     }
