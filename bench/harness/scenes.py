@@ -107,6 +107,7 @@ def plot(ctx, rows, per_frame):
         axes[i][1].set_title(f"{name}: mesh sizes", fontsize=9)
         axes[i][2].plot(x, [p["crossing_pairs"] for p in records], label="crossing triangle pairs")
         axes[i][2].plot(x, [p["creased_percent"] for p in records], label="edges creased past 90° (%)")
+        axes[i][2].plot(x, [p["facing_percent"] for p in records], label="area facing itself within h (%)")
         twin = axes[i][2].twinx()
         twin.plot(x, [p["volume_ratio"] for p in records], "k--", label="volume / frame 0")
         twin.set_ylabel("volume ratio", fontsize=7)
