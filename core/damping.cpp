@@ -44,7 +44,7 @@ void Damping::apply(const Body& body, const Points& v, Points& out) {
   const Index ne = body.num_elements();
   check_frozen(body);
   const NodeIncidence& incidence = body.incidence;
-  require_slots(incidence, ne, "damping");
+  require_slots(incidence, ne, "damping");  // the node sums read corners 4e + k through it
   corner_forces_.resize(4 * at(ne));
   const SimdLevel level = active_simd_level();
   const auto blocks = static_cast<Index>(blocks_.size());
@@ -60,15 +60,21 @@ void Damping::apply(const Body& body, const Points& v, Points& out) {
                             for (int i = 0; i < 3; ++i) lanes.v[c][i][lane] = v(node, i);
                           }
                         damping_block(blocks_[at(b)], lanes, level);
-                        // Written where each node's sum reads them, in sequence.
+                        // Each element's four side by side: the node sums read them
+                        // scattered. (Written at each node's place in the incidence,
+                        // the writes scattered instead, one application took 1.1–1.4×
+                        // as long on two threads: docs/benchmarks.md, session 27.)
                         for (int lane = 0; lane < count; ++lane)
                           for (int c = 0; c < 4; ++c) {
-                            Eigen::Vector3d& f = corner_forces_[at(incidence.slots[at(4 * (first + lane) + c)])];
+                            Eigen::Vector3d& f = corner_forces_[at(4 * (first + lane) + c)];
                             for (int i = 0; i < 3; ++i) f[i] = lanes.f[c][i][lane];
                           }
                       }
                     });
-  sum_slots_to_nodes(incidence, corner_forces_, out);
+  out.resize(static_cast<Index>(incidence.offsets.size() - 1), 3);
+  sum_over_corners(
+      incidence, Eigen::Vector3d::Zero().eval(), [&](Index corner) -> const Eigen::Vector3d& { return corner_forces_[at(corner)]; },
+      [&](Index n, const Eigen::Vector3d& sum) { out.row(n) = sum.transpose(); });
 }
 
 void Damping::apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,

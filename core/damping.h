@@ -49,7 +49,7 @@ class Damping {
  private:
   /// Throws unless frozen for a body of this many elements.
   void check_frozen(const Body& body) const;
-  /// Each corner's force, at its place in the incidence (NodeIncidence::slots).
+  /// Each corner's force, element by element (4 e + k).
   std::vector<Eigen::Vector3d> corner_forces_;
   const std::vector<Eigen::Matrix3d>* Fe_ = nullptr;  ///< as frozen
   std::size_t frozen_elements_ = 0;                   ///< elements of the body frozen for

@@ -242,8 +242,10 @@ TEST(Damping, AFrozenOperatorIsRefusedForABodyItWasNotFrozenFor) {
   Body bigger = make_cube(ElasticModel::fixed_corotated, 3);
   EXPECT_TRUE(test::throws_error_containing([&] { damping.apply(bigger, Points::Zero(bigger.num_nodes(), 3), out); },
                                             "not frozen"));
-  // Both passes write each corner's force at its place in the incidence:
-  // one that is not the elements' is refused, not written past.
+  // Both passes go through the incidence (the forces write each corner's
+  // force at its place in it, the damping's node sums read the corners it
+  // lists): one that is not the elements' is refused, not written or read
+  // past.
   Body stale = body;
   stale.incidence = NodeIncidence::build(bigger.tets, bigger.num_nodes());
   EXPECT_TRUE(test::throws_error_containing([&] { damping.apply(stale, v, out); }, "node incidence"));
