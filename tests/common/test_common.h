@@ -13,6 +13,7 @@
 #include "core/material.h"
 #include "core/state_record.h"
 #include "core/tet_mesh.h"
+#include "core/triangle_mesh.h"
 
 #include "core/error.h"
 
@@ -21,6 +22,17 @@ namespace goo::test {
 /// The elastic models every model-wise test runs over.
 inline constexpr ElasticModel kModels[] = {ElasticModel::neo_hookean, ElasticModel::fixed_corotated,
                                            ElasticModel::stable_neo_hookean};
+
+/// Two surfaces as one mesh: b's vertices after a's, its triangles
+/// renumbered to match.
+inline TriangleMesh joined(const TriangleMesh& a, const TriangleMesh& b) {
+  TriangleMesh both;
+  both.vertices.resize(a.num_vertices() + b.num_vertices(), 3);
+  both.vertices << a.vertices, b.vertices;
+  both.triangles.resize(a.num_triangles() + b.num_triangles(), 3);
+  both.triangles << a.triangles, (b.triangles.array() + a.num_vertices()).matrix();
+  return both;
+}
 
 /// A material of the given model and constants (viscosity in Pa·s).
 inline Material material(ElasticModel model, double E, double nu, double viscosity = 0.0) {

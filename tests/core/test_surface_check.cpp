@@ -6,6 +6,7 @@
 #include "core/error.h"
 #include "core/primitives.h"
 #include "core/surface_check.h"
+#include "tests/common/test_common.h"
 #include "tests/core/mesh_fixtures.h"
 
 namespace goo {
@@ -148,11 +149,7 @@ TEST(ValidateSurface, HollowShellWithOutwardOuterAndInwardInnerIsValid) {
   TriangleMesh outer = make_sphere(2.0, 24);
   TriangleMesh inner = make_sphere(1.0, 24);
   flip_orientation(inner);  // a cavity faces inward
-  TriangleMesh shell;
-  shell.vertices.resize(outer.num_vertices() + inner.num_vertices(), 3);
-  shell.vertices << outer.vertices, inner.vertices;
-  shell.triangles.resize(outer.num_triangles() + inner.num_triangles(), 3);
-  shell.triangles << outer.triangles, (inner.triangles.array() + outer.num_vertices()).matrix();
+  TriangleMesh shell = test::joined(outer, inner);
   const SurfaceReport r = validate_surface(shell, "shell");
   EXPECT_EQ(r.components, 2);
   EXPECT_NEAR(r.volume, analyze_surface(outer).volume + analyze_surface(inner).volume, 1e-12);

@@ -10,6 +10,7 @@
 
 #include "core/primitives.h"
 #include "meshing/surface_intersections.h"
+#include "tests/common/test_common.h"
 
 namespace goo {
 namespace {
@@ -77,11 +78,7 @@ TEST(SelfIntersectionOracle, BoxesMeetingOnOneGrid) {
   // vertices land on faces and edges of the other: the touching cases.
   TriangleMesh a = make_box({1, 1, 1}, 4), b = a;
   b.vertices.array() += 0.5;
-  TriangleMesh both;
-  both.vertices.resize(a.num_vertices() * 2, 3);
-  both.vertices << a.vertices, b.vertices;
-  both.triangles.resize(a.num_triangles() * 2, 3);
-  both.triangles << a.triangles, b.triangles.array() + a.num_vertices();
+  TriangleMesh both = test::joined(a, b);
   expect_same_as_cgal(both, 1);
   // And touching face to face: shifted by exactly one box along x.
   b = a;

@@ -7,6 +7,7 @@
 
 #include "core/primitives.h"
 #include "meshing/surface_intersections.h"
+#include "tests/common/test_common.h"
 
 namespace goo {
 namespace {
@@ -158,11 +159,7 @@ TEST(SurfaceQuality, TwoInterpenetratingSpheres) {
   // near the circle where the spheres meet, none within one sphere.
   TriangleMesh a = make_sphere(1.0, 16), b = a;
   b.vertices.col(0).array() += 1.5;
-  TriangleMesh both;
-  both.vertices.resize(a.num_vertices() * 2, 3);
-  both.vertices << a.vertices, b.vertices;
-  both.triangles.resize(a.num_triangles() * 2, 3);
-  both.triangles << a.triangles, b.triangles.array() + a.num_vertices();
+  TriangleMesh both = test::joined(a, b);
   const auto pairs = self_intersecting_pairs(both);
   ASSERT_FALSE(pairs.empty());
   for (const auto& p : pairs) {
@@ -207,15 +204,6 @@ TEST(SurfaceQuality, SameAnswerOnOneAndTwoThreads) {
   EXPECT_EQ(one, two);
 }
 
-TriangleMesh joined(const TriangleMesh& a, const TriangleMesh& b) {
-  TriangleMesh both;
-  both.vertices.resize(a.num_vertices() + b.num_vertices(), 3);
-  both.vertices << a.vertices, b.vertices;
-  both.triangles.resize(a.num_triangles() + b.num_triangles(), 3);
-  both.triangles << a.triangles, b.triangles.array() + a.num_vertices();
-  return both;
-}
-
 TEST(FacingSheets, TwoBoxesFaceEachOtherAcrossANarrowGap) {
   // Unit cubes one above the other, 0.1 apart: the lower one's top and the
   // upper one's bottom (area 1 each, 32 triangles each, each triangle 0.1
@@ -224,12 +212,12 @@ TEST(FacingSheets, TwoBoxesFaceEachOtherAcrossANarrowGap) {
   const TriangleMesh lower = make_box({1, 1, 1}, 4);
   TriangleMesh upper = lower;
   upper.vertices.col(2).array() += 1.1;
-  const FacingSheets near = facing_sheets(joined(lower, upper), 0.3);
+  const FacingSheets near = facing_sheets(test::joined(lower, upper), 0.3);
   EXPECT_EQ(near.triangles, 64);
   EXPECT_NEAR(near.area, 2.0, 1e-12);
   // Farther apart than the gap: nothing.
   upper.vertices.col(2).array() += 0.4;
-  const FacingSheets far = facing_sheets(joined(lower, upper), 0.3);
+  const FacingSheets far = facing_sheets(test::joined(lower, upper), 0.3);
   EXPECT_EQ(far.triangles, 0);
   EXPECT_EQ(far.area, 0.0);
 }
@@ -251,7 +239,7 @@ TEST(FacingSheets, OnlyGapsNarrowerThanTheThresholdCount) {
   right.vertices.col(0).array() += 0.55;
   left.vertices.col(2).array() += 1.0;
   right.vertices.col(2).array() += 1.0;
-  const FacingSheets fold = facing_sheets(joined(joined(base, left), right), 0.2);
+  const FacingSheets fold = facing_sheets(test::joined(test::joined(base, left), right), 0.2);
   EXPECT_EQ(fold.triangles, 64);
   EXPECT_NEAR(fold.area, 2.0, 1e-12);
 }
@@ -260,7 +248,7 @@ TEST(FacingSheets, SameBitsOnOneAndTwoThreads) {
   const TriangleMesh lower = make_box({1, 1, 1}, 12);
   TriangleMesh upper = make_sphere(0.7, 40);
   upper.vertices.col(2).array() += 1.25;
-  const TriangleMesh both = joined(lower, upper);
+  const TriangleMesh both = test::joined(lower, upper);
   FacingSheets one, two;
   {
     const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);

@@ -45,12 +45,7 @@ Body stacked_boxes(double gap, double lower_width = 0.1, int subdivisions = 4) {
   TriangleMesh a = make_box({lower_width, lower_width, 0.1}, subdivisions),
                b = make_box({0.1, 0.1, 0.1}, subdivisions);
   b.vertices.col(2).array() += 0.1 + gap;
-  TriangleMesh both;
-  both.vertices.resize(a.num_vertices() * 2, 3);
-  both.vertices << a.vertices, b.vertices;
-  both.triangles.resize(a.num_triangles() * 2, 3);
-  both.triangles << a.triangles, b.triangles.array() + a.num_vertices();
-  return mesh_body(both, gel(), 0.04).body;
+  return mesh_body(test::joined(a, b), gel(), 0.04).body;
 }
 
 /// Crossing triangle pairs of the surface at time t of the step x0 → x0 + d.
@@ -156,12 +151,8 @@ Throw spun_spheres(unsigned seed) {
   std::uniform_real_distribution<double> lump(-0.004, 0.004);
   TriangleMesh a = make_sphere(0.1, 24);
   for (Index v = 0; v < a.num_vertices(); ++v) a.vertices.row(v) *= 1.0 + lump(rng) / 0.1;
-  TriangleMesh both;
-  both.vertices.resize(a.num_vertices() * 2, 3);
-  both.vertices << a.vertices, a.vertices;
+  TriangleMesh both = test::joined(a, a);
   both.vertices.bottomRows(a.num_vertices()).col(0).array() += 0.35;
-  both.triangles.resize(a.num_triangles() * 2, 3);
-  both.triangles << a.triangles, a.triangles.array() + a.num_vertices();
   Throw c{mesh_body(both, gel(), 0.04).body, {}, {}};
   c.x0 = c.body.positions;
   c.d = Points::Zero(c.body.num_nodes(), 3);
