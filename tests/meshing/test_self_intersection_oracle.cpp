@@ -9,6 +9,7 @@
 #include <random>
 
 #include "core/primitives.h"
+#include "meshing/exact_predicates.h"
 #include "meshing/surface_intersections.h"
 #include "tests/common/test_common.h"
 
@@ -47,6 +48,35 @@ void expect_same_as_cgal(const TriangleMesh& m, std::size_t at_least) {
   EXPECT_GE(ours.size(), at_least);
   ::testing::Test::RecordProperty("pairs", static_cast<int>(ours.size()));
   EXPECT_EQ(ours, theirs);
+}
+
+// The orientation predicate's fast path (a static error bound) agrees with
+// CGAL's exact one: on random points, on points exactly in a plane (dyadic
+// combinations: 0), and on those moved off it by one unit in the last place.
+TEST(SelfIntersectionOracle, OrientationAgreesWithCgal) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto point = [&] { return Eigen::Vector3d(u(rng), u(rng), u(rng)); };
+  auto cgal = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
+    auto p = [](const Eigen::Vector3d& x) { return Kernel::Point_3(x.x(), x.y(), x.z()); };
+    return static_cast<int>(CGAL::orientation(p(a), p(b), p(c), p(d)));
+  };
+  int zeros = 0, near = 0;
+  for (int i = 0; i < 20000; ++i) {
+    // Corners on a grid of 2⁻¹⁰ so that dyadic combinations stay exact.
+    auto grid = [&] { return Eigen::Vector3d((point() * 1024.0).array().round() / 1024.0); };
+    const Eigen::Vector3d a = grid(), b = grid(), c = grid();
+    Eigen::Vector3d d = i % 3 == 0 ? point() : Eigen::Vector3d(a + 0.5 * (b - a) + 0.25 * (c - a));
+    if (i % 3 == 2) d.x() = std::nextafter(d.x(), 2.0);
+    const Eigen::Vector3d shift = 1e3 * point();  // large offsets: cancellation in the differences
+    const int want = cgal(a + shift, b + shift, c + shift, d + shift), got = exact::orient_3d(a + shift, b + shift, c + shift, d + shift);
+    ASSERT_EQ(got, want) << i;
+    ASSERT_EQ(exact::orient_3d(a, b, c, d), cgal(a, b, c, d)) << i;
+    zeros += cgal(a, b, c, d) == 0 ? 1 : 0;
+    near += i % 3 == 2 ? 1 : 0;
+  }
+  EXPECT_GT(zeros, 6000);
+  EXPECT_GT(near, 6000);
 }
 
 TEST(SelfIntersectionOracle, CrumpledSpheres) {
