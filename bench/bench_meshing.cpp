@@ -12,6 +12,7 @@
 #include "core/surface_geometry.h"
 #include "io/surface_mesh_io.h"
 #include "meshing/exact_mass.h"
+#include "meshing/material_parts.h"
 #include "meshing/lattice_mesh.h"
 #include "meshing/surface_upkeep.h"
 #include "meshing/transfer.h"
@@ -90,6 +91,18 @@ void BM_ExactMass(benchmark::State& state) {
   state.counters["tets"] = lm.mesh.num_elements();
 }
 BENCHMARK(BM_ExactMass)->Apply(configure);
+
+/// The connected parts of every element's material (what a re-mesh must
+/// keep apart), on a lattice mesh already built.
+void BM_MaterialParts(benchmark::State& state) {
+  const goo::TriangleMesh* mesh = model(static_cast<int>(state.range(0)));
+  if (!mesh) return state.SkipWithError("assets missing: run scripts/fetch-assets");
+  const goo::LatticeMesh lm =
+      goo::build_lattice_mesh(*mesh, spacing_for(*mesh, 1000.0 * static_cast<double>(state.range(1))));
+  for (auto _ : state) benchmark::DoNotOptimize(goo::material_parts(lm, *mesh));
+  state.counters["tets"] = lm.mesh.num_elements();
+}
+BENCHMARK(BM_MaterialParts)->Apply(configure);
 
 using goo::bench::deformed_body;
 

@@ -15,10 +15,18 @@
 namespace goo {
 namespace {
 
-/// Separating-axis test of a triangle and a tetrahedron, with both inflated
-/// by `slack` along every axis: touching counts as overlapping, so coverage
-/// is never lost to round-off (extra tetrahedra are harmless).
-bool overlaps(const std::array<Eigen::Vector3d, 3>& tri, const std::array<Eigen::Vector3d, 4>& tet, double slack) {
+BccLattice block_around(const TriangleMesh& surface, double h) {
+  if (!(h > 0.0) || !std::isfinite(h)) throw Error(fmt::format("lattice spacing must be positive, got {}", h));
+  const Eigen::AlignedBox3d box = bounding_box(surface.vertices);
+  if (box.isEmpty()) throw Error("cannot build a lattice around an empty surface");
+  const Eigen::Vector3d origin = ((box.min() / h).array().floor() - 2.0).matrix() * h;
+  const Eigen::Vector3i cells = (((box.max() - origin) / h).array().ceil() + 2.0).cast<int>();
+  return BccLattice(origin, h, cells);
+}
+
+}  // namespace
+
+bool overlaps_inflated(const std::array<Eigen::Vector3d, 3>& tri, const std::array<Eigen::Vector3d, 4>& tet, double slack) {
   auto separated = [&](const Eigen::Vector3d& axis) {
     const double length = axis.norm();
     if (length < 1e-300) return false;
@@ -48,17 +56,6 @@ bool overlaps(const std::array<Eigen::Vector3d, 3>& tri, const std::array<Eigen:
     }
   return true;
 }
-
-BccLattice block_around(const TriangleMesh& surface, double h) {
-  if (!(h > 0.0) || !std::isfinite(h)) throw Error(fmt::format("lattice spacing must be positive, got {}", h));
-  const Eigen::AlignedBox3d box = bounding_box(surface.vertices);
-  if (box.isEmpty()) throw Error("cannot build a lattice around an empty surface");
-  const Eigen::Vector3d origin = ((box.min() / h).array().floor() - 2.0).matrix() * h;
-  const Eigen::Vector3i cells = (((box.max() - origin) / h).array().ceil() + 2.0).cast<int>();
-  return BccLattice(origin, h, cells);
-}
-
-}  // namespace
 
 LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
   LatticeMesh out{block_around(surface, h), {}, {}, {}, {}, {}, {}};
@@ -107,7 +104,7 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
           tet_hi = tet_hi.cwiseMax(p);
         }
         if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any()) return;
-        if (overlaps(tri, tet, slack)) found.push_back(key);
+        if (overlaps_inflated(tri, tet, slack)) found.push_back(key);
       });
     }
   });

@@ -1,6 +1,7 @@
 #pragma once
 // The tetrahedral mesh cut from the BCC lattice around a closed surface, and
 // the surface embedded in it (W&T secs. 4–5).
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -32,6 +33,12 @@ struct LatticeMesh {
                                                                               : -1;
   }
 };
+
+/// Separating-axis test of a triangle and a tetrahedron, with both inflated
+/// by `slack` along every axis: touching counts as overlapping, so coverage
+/// is never lost to round-off (extra tetrahedra are harmless); false only
+/// when a plane separates them by more than `slack`.
+bool overlaps_inflated(const std::array<Eigen::Vector3d, 3>& tri, const std::array<Eigen::Vector3d, 4>& tet, double slack);
 
 /// The lattice block of spacing h around `surface` (aligned to the world
 /// grid of spacing h, two cells of margin), and every lattice tetrahedron

@@ -1,0 +1,763 @@
+#include "meshing/material_parts.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#include "core/error.h"
+#include "core/parallel.h"
+#include "core/surface_topology.h"
+#include "core/union_find.h"
+#include "meshing/convex_clip.h"
+#include "meshing/exact_predicates.h"
+#include "meshing/lattice_slicing.h"
+
+namespace goo {
+namespace {
+
+using Vec = Eigen::Vector3d;
+using Corners = std::array<Vec, 4>;
+
+/// An exact test's answer: no, yes, or undecided by a zero orientation (a
+/// degenerate configuration).
+enum class Answer : std::uint8_t { no, yes, degenerate };
+
+/// Whether the segment uw passes through the open triangle abc, given the
+/// exact sides su, sw of u and w to its plane: u and w strictly on opposite
+/// sides, the line strictly inside its three edges.
+Answer segment_crosses_triangle(const Vec& u, const Vec& w, int su, int sw, const Vec& a, const Vec& b, const Vec& c) {
+  if (su != 0 && su == sw) return Answer::no;
+  const int o0 = exact::orient_3d(u, w, a, b), o1 = exact::orient_3d(u, w, b, c);
+  if (o0 * o1 < 0) return Answer::no;  // the line passes beside the triangle
+  const int o2 = exact::orient_3d(u, w, c, a);
+  if (o0 * o2 < 0 || o1 * o2 < 0) return Answer::no;
+  if (su == 0 || sw == 0 || o0 == 0 || o1 == 0 || o2 == 0) return Answer::degenerate;
+  return Answer::yes;
+}
+
+Answer segment_crosses_triangle(const Vec& u, const Vec& w, const Vec& a, const Vec& b, const Vec& c) {
+  return segment_crosses_triangle(u, w, exact::orient_3d(a, b, c, u), exact::orient_3d(a, b, c, w), a, b, c);
+}
+
+/// The exact sides of a triangle and a tetrahedron to each other's planes,
+/// from which every test of the two is made: each triangle vertex to each
+/// face's plane (negative on the inner side: faces counter-clockwise from
+/// outside), each tetrahedron corner to the triangle's plane.
+struct Sides {
+  std::array<std::array<std::int8_t, 4>, 3> vertex{};  ///< [triangle vertex][face opposite corner f]
+  std::array<std::int8_t, 4> corner{};                 ///< [corner]
+};
+
+const Vec& face_corner(const Corners& x, int f, int i) { return x[static_cast<std::size_t>(kTetFaces[f][i])]; }
+
+Sides sides_of(const Corners& x, const std::array<Vec, 3>& t) {
+  Sides s;
+  for (int i = 0; i < 3; ++i)
+    for (int f = 0; f < 4; ++f)
+      s.vertex[static_cast<std::size_t>(i)][static_cast<std::size_t>(f)] = static_cast<std::int8_t>(
+          exact::orient_3d(face_corner(x, f, 0), face_corner(x, f, 1), face_corner(x, f, 2), t[static_cast<std::size_t>(i)]));
+  for (int k = 0; k < 4; ++k)
+    s.corner[static_cast<std::size_t>(k)] = static_cast<std::int8_t>(exact::orient_3d(t[0], t[1], t[2], x[static_cast<std::size_t>(k)]));
+  return s;
+}
+
+/// Whether a point with these sides to the faces is strictly inside the
+/// tetrahedron; degenerate on its boundary.
+Answer strictly_inside(const std::array<std::int8_t, 4>& side) {
+  bool on_boundary = false;
+  for (const auto s : side) {
+    if (s > 0) return Answer::no;
+    on_boundary = on_boundary || s == 0;
+  }
+  return on_boundary ? Answer::degenerate : Answer::yes;
+}
+
+/// Whether the segment uw (with its ends' sides to the faces) meets the
+/// tetrahedron's interior: an end strictly inside or a face crossed.
+/// `degenerate` when no witness is found but a test was undecided.
+Answer segment_meets_tet(const Corners& x, const Vec& u, const Vec& w, const std::array<std::int8_t, 4>& su,
+                         const std::array<std::int8_t, 4>& sw) {
+  bool undecided = false;
+  for (const auto* side : {&su, &sw}) {
+    const Answer a = strictly_inside(*side);
+    if (a == Answer::yes) return Answer::yes;
+    undecided = undecided || a == Answer::degenerate;
+  }
+  for (int f = 0; f < 4; ++f) {
+    const int a0 = su[static_cast<std::size_t>(f)], a1 = sw[static_cast<std::size_t>(f)];
+    if (a0 > 0 && a1 > 0) return undecided ? Answer::degenerate : Answer::no;  // both beyond one face
+  }
+  for (int f = 0; f < 4; ++f) {
+    const Answer a = segment_crosses_triangle(u, w, su[static_cast<std::size_t>(f)], sw[static_cast<std::size_t>(f)],
+                                              face_corner(x, f, 0), face_corner(x, f, 1), face_corner(x, f, 2));
+    if (a == Answer::yes) return Answer::yes;
+    undecided = undecided || a == Answer::degenerate;
+  }
+  return undecided ? Answer::degenerate : Answer::no;
+}
+
+/// Whether the triangle t meets the tetrahedron's interior: a vertex
+/// inside, one of its edges through a face, or an edge of the tetrahedron
+/// through it (the three ways a triangle and a tetrahedron in general
+/// position can meet).
+Answer triangle_meets_tet(const Corners& x, const std::array<Vec, 3>& t, const Sides& s) {
+  // Separated by a face's plane or the triangle's: exactly no.
+  for (int f = 0; f < 4; ++f)
+    if (s.vertex[0][static_cast<std::size_t>(f)] > 0 && s.vertex[1][static_cast<std::size_t>(f)] > 0 &&
+        s.vertex[2][static_cast<std::size_t>(f)] > 0)
+      return Answer::no;
+  const auto& c = s.corner;
+  if ((c[0] > 0 && c[1] > 0 && c[2] > 0 && c[3] > 0) || (c[0] < 0 && c[1] < 0 && c[2] < 0 && c[3] < 0)) return Answer::no;
+  bool undecided = false;
+  for (int k = 0; k < 3; ++k) {
+    const Answer a = segment_meets_tet(x, t[static_cast<std::size_t>(k)], t[static_cast<std::size_t>((k + 1) % 3)],
+                                       s.vertex[static_cast<std::size_t>(k)], s.vertex[static_cast<std::size_t>((k + 1) % 3)]);
+    if (a == Answer::yes) return Answer::yes;
+    undecided = undecided || a == Answer::degenerate;
+  }
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j) {
+      const Answer a = segment_crosses_triangle(x[static_cast<std::size_t>(i)], x[static_cast<std::size_t>(j)], c[static_cast<std::size_t>(i)],
+                                                c[static_cast<std::size_t>(j)], t[0], t[1], t[2]);
+      if (a == Answer::yes) return Answer::yes;
+      undecided = undecided || a == Answer::degenerate;
+    }
+  return undecided ? Answer::degenerate : Answer::no;
+}
+
+/// Whether the plane of the triangle or of a face of the tetrahedron has
+/// one of them on its far side by more than `slack` (a cheap filter before
+/// the exact tests).
+bool separated_by_a_face_plane(const std::array<Vec, 3>& t, const Corners& x, double slack) {
+  auto apart = [&](const Vec& axis) {
+    const double length = axis.norm();
+    double t0 = t[0].dot(axis), t1 = t0, k0 = x[0].dot(axis), k1 = k0;
+    for (const auto& p : t) {
+      t0 = std::min(t0, p.dot(axis));
+      t1 = std::max(t1, p.dot(axis));
+    }
+    for (const auto& p : x) {
+      k0 = std::min(k0, p.dot(axis));
+      k1 = std::max(k1, p.dot(axis));
+    }
+    return t1 + slack * length < k0 || k1 + slack * length < t0;
+  };
+  if (apart((t[1] - t[0]).cross(t[2] - t[0]))) return true;
+  for (const auto& f : kTetFaces) {
+    const Vec& a = x[static_cast<std::size_t>(f[0])];
+    if (apart((x[static_cast<std::size_t>(f[1])] - a).cross(x[static_cast<std::size_t>(f[2])] - a))) return true;
+  }
+  return false;
+}
+
+Corners element_corners(const TetMesh& mesh, Index e) {
+  return {mesh.positions.row(mesh.tets(e, 0)).transpose(), mesh.positions.row(mesh.tets(e, 1)).transpose(),
+          mesh.positions.row(mesh.tets(e, 2)).transpose(), mesh.positions.row(mesh.tets(e, 3)).transpose()};
+}
+
+std::array<Vec, 3> triangle_corners(const TriangleMesh& s, Index t) {
+  return {s.vertices.row(s.triangles(t, 0)).transpose(), s.vertices.row(s.triangles(t, 1)).transpose(),
+          s.vertices.row(s.triangles(t, 2)).transpose()};
+}
+
+/// Disjoint sets over a few items, reused from element to element.
+struct SmallSets {
+  std::vector<int> parent;
+  void reset(int n) {
+    parent.resize(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) parent[static_cast<std::size_t>(i)] = i;
+  }
+  int find(int x) {
+    while (parent[static_cast<std::size_t>(x)] != x) x = parent[static_cast<std::size_t>(x)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
+    return x;
+  }
+  /// The smaller root wins: a class is named by its first item.
+  void unite(int a, int b) {
+    a = find(a);
+    b = find(b);
+    if (a != b) parent[static_cast<std::size_t>(std::max(a, b))] = std::min(a, b);
+  }
+};
+
+constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+
+/// One element's candidate parts: the class of each of its triangles and
+/// corners (−1: outside), numbered in order of first item; whether each
+/// class holds an edge interval; degenerate if an exact test was undecided.
+struct ElementClasses {
+  std::vector<int> triangle_class;
+  std::array<int, 4> corner_class{-1, -1, -1, -1};
+  std::vector<std::uint8_t> class_on_edge;
+  /// The class of each interval of each edge (kEdges order), walked from
+  /// the edge's lower node: intervals[interval_first[j] .. interval_first[j + 1]),
+  /// −1 for an interval outside the surface.
+  std::vector<int> intervals;
+  std::array<int, 7> interval_first{};
+  bool degenerate = false;
+  [[nodiscard]] int count() const { return static_cast<int>(class_on_edge.size()); }
+};
+
+struct Scratch {
+  SmallSets sets;
+  struct Crossing {
+    double s;
+    int triangle;
+  };
+  std::vector<Crossing> crossings;
+  std::vector<int> label;
+};
+
+void classify_element(const Corners& x, const std::array<Index, 4>& nodes, const std::array<bool, 4>& inside,
+                      const TriangleMesh& surface, const Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor>& across, const Index* tris,
+                      const Sides* sides, int m, Scratch& scratch, ElementClasses& out) {
+  out.degenerate = false;
+  out.intervals.clear();
+  out.interval_first.fill(0);
+  out.triangle_class.assign(static_cast<std::size_t>(m), 0);
+  out.corner_class = {-1, -1, -1, -1};
+  out.class_on_edge.clear();
+  // Items: the m triangles, then each edge's intervals (crossings + 1).
+  // Intervals are added as the edges are walked; at most m + 1 per edge.
+  SmallSets& sets = scratch.sets;
+  sets.reset(m + 6 * (m + 1));
+  auto local = [&](Index t) -> int {
+    const Index* it = std::lower_bound(tris, tris + m, t);
+    return it != tris + m && *it == t ? static_cast<int>(it - tris) : -1;
+  };
+  // Patches: two triangles whose shared edge passes through the interior.
+  for (int i = 0; i < m && !out.degenerate; ++i) {
+    const Index t = tris[i];
+    for (int k = 0; k < 3; ++k) {
+      const Index nb = across(t, k);
+      if (nb <= t) continue;
+      const int j = local(nb);
+      if (j < 0) continue;
+      const Answer a = segment_meets_tet(x, surface.vertices.row(surface.triangles(t, k)).transpose(),
+                                         surface.vertices.row(surface.triangles(t, (k + 1) % 3)).transpose(),
+                                         sides[i].vertex[static_cast<std::size_t>(k)],
+                                         sides[i].vertex[static_cast<std::size_t>((k + 1) % 3)]);
+      if (a == Answer::degenerate) out.degenerate = true;
+      if (a == Answer::yes) sets.unite(i, j);
+    }
+  }
+  // The edges' intervals, in order from the edge's lower node (the same
+  // order, bit for bit, in every element around the edge).
+  int next_item = m;
+  std::array<int, 4> corner_item{-1, -1, -1, -1};
+  std::vector<int> interval_inside;  // per item − m: 1 if inside
+  interval_inside.reserve(static_cast<std::size_t>(6 * (m + 1)));
+  std::array<int, 7> item_first{};
+  item_first[0] = m;
+  for (int j = 0; j < 6; ++j) {
+    if (out.degenerate) break;
+    std::array<int, 2> edge = {kEdges[j][0], kEdges[j][1]};
+    if (nodes[static_cast<std::size_t>(edge[0])] > nodes[static_cast<std::size_t>(edge[1])]) std::swap(edge[0], edge[1]);
+    const Vec& p = x[static_cast<std::size_t>(edge[0])];
+    const Vec& q = x[static_cast<std::size_t>(edge[1])];
+    auto& crossings = scratch.crossings;
+    crossings.clear();
+    for (int i = 0; i < m; ++i) {
+      const int sp = sides[i].corner[static_cast<std::size_t>(edge[0])], sq = sides[i].corner[static_cast<std::size_t>(edge[1])];
+      if (sp != 0 && sp == sq) continue;
+      const auto c = triangle_corners(surface, tris[i]);
+      const Answer a = segment_crosses_triangle(p, q, sp, sq, c[0], c[1], c[2]);
+      if (a == Answer::degenerate) out.degenerate = true;
+      if (a != Answer::yes) continue;
+      const Vec n = (c[1] - c[0]).cross(c[2] - c[0]);
+      const double dp = n.dot(p - c[0]), dq = n.dot(q - c[0]);
+      crossings.push_back({dp / (dp - dq), i});
+    }
+    if (out.degenerate) break;
+    std::sort(crossings.begin(), crossings.end(),
+              [](const Scratch::Crossing& a, const Scratch::Crossing& b) { return a.s < b.s || (a.s == b.s && a.triangle < b.triangle); });
+    for (std::size_t r = 1; r < crossings.size(); ++r)
+      if (!(crossings[r].s - crossings[r - 1].s > 1e-9)) out.degenerate = true;
+    // Inside and outside alternate from the lower corner's exact flag; the
+    // upper corner's flag must agree.
+    bool now_inside = inside[static_cast<std::size_t>(edge[0])];
+    const int first = next_item;
+    interval_inside.push_back(now_inside ? 1 : 0);
+    ++next_item;
+    for (const auto& crossing : crossings) {
+      const int before = next_item - 1, after = next_item;
+      now_inside = !now_inside;
+      interval_inside.push_back(now_inside ? 1 : 0);
+      ++next_item;
+      sets.unite(crossing.triangle, now_inside ? after : before);
+    }
+    if (now_inside != inside[static_cast<std::size_t>(edge[1])]) out.degenerate = true;
+    const int last = next_item - 1;
+    for (const auto& [corner, item] : {std::pair{edge[0], first}, std::pair{edge[1], last}}) {
+      if (!inside[static_cast<std::size_t>(corner)]) continue;
+      int& seen = corner_item[static_cast<std::size_t>(corner)];
+      if (seen < 0)
+        seen = item;
+      else
+        sets.unite(seen, item);
+    }
+    item_first[static_cast<std::size_t>(j + 1)] = next_item;
+  }
+  if (out.degenerate) {
+    // One part: everything there is.
+    const bool any = m > 0 || inside[0] || inside[1] || inside[2] || inside[3];
+    if (any) out.class_on_edge.push_back(1);
+    for (int k = 0; k < 4; ++k) out.corner_class[static_cast<std::size_t>(k)] = inside[static_cast<std::size_t>(k)] ? 0 : -1;
+    return;
+  }
+  // Number the classes that hold a triangle or an inside interval, in
+  // order of their first item.
+  auto& label = scratch.label;
+  label.assign(static_cast<std::size_t>(next_item), -1);
+  for (int item = 0; item < next_item; ++item) {
+    if (item >= m && !interval_inside[static_cast<std::size_t>(item - m)]) continue;
+    const int root = sets.find(item);
+    if (label[static_cast<std::size_t>(root)] < 0) {
+      label[static_cast<std::size_t>(root)] = out.count();
+      out.class_on_edge.push_back(0);
+    }
+    if (item >= m) out.class_on_edge[static_cast<std::size_t>(label[static_cast<std::size_t>(root)])] = 1;
+  }
+  for (int i = 0; i < m; ++i) out.triangle_class[static_cast<std::size_t>(i)] = label[static_cast<std::size_t>(sets.find(i))];
+  for (int j = 0; j < 6; ++j) {
+    out.interval_first[static_cast<std::size_t>(j)] = static_cast<int>(out.intervals.size());
+    for (int item = item_first[static_cast<std::size_t>(j)]; item < item_first[static_cast<std::size_t>(j + 1)]; ++item)
+      out.intervals.push_back(interval_inside[static_cast<std::size_t>(item - m)] ? label[static_cast<std::size_t>(sets.find(item))] : -1);
+  }
+  out.interval_first[6] = static_cast<int>(out.intervals.size());
+  for (int k = 0; k < 4; ++k)
+    if (corner_item[static_cast<std::size_t>(k)] >= 0)
+      out.corner_class[static_cast<std::size_t>(k)] = label[static_cast<std::size_t>(sets.find(corner_item[static_cast<std::size_t>(k)]))];
+}
+
+/// Two elements' parts joined across their shared face: the element and
+/// face (corner opposite) on each side, and the pairs of parts whose
+/// material meets on the face.
+struct FaceJoin {
+  Index element[2];
+  int opposite[2];
+  std::vector<std::array<Index, 2>> parts;
+};
+
+/// Whether triangle t crosses the open triangle f (the face of an element):
+/// one of its edges through f, or an edge of f through it.
+Answer triangle_crosses_face(const std::array<Vec, 3>& t, const std::array<Vec, 3>& f) {
+  bool undecided = false;
+  for (int k = 0; k < 3; ++k) {
+    const Answer a = segment_crosses_triangle(t[static_cast<std::size_t>(k)], t[static_cast<std::size_t>((k + 1) % 3)], f[0], f[1], f[2]);
+    if (a == Answer::yes) return Answer::yes;
+    undecided = undecided || a == Answer::degenerate;
+  }
+  for (int k = 0; k < 3; ++k) {
+    const Answer a = segment_crosses_triangle(f[static_cast<std::size_t>(k)], f[static_cast<std::size_t>((k + 1) % 3)], t[0], t[1], t[2]);
+    if (a == Answer::yes) return Answer::yes;
+    undecided = undecided || a == Answer::degenerate;
+  }
+  return undecided ? Answer::degenerate : Answer::no;
+}
+
+/// Local edge index (kEdges) of corners a and b.
+int edge_index(int a, int b) {
+  if (a > b) std::swap(a, b);
+  for (int j = 0; j < 6; ++j)
+    if (kEdges[j][0] == a && kEdges[j][1] == b) return j;
+  return -1;
+}
+
+/// Which parts of the two elements sharing a face have material that meets
+/// on it: the same inside interval of one of the face's edges, or a
+/// triangle that crosses the face. Where either element is degenerate or
+/// the two disagree on an edge's intervals, every part of both is joined
+/// (as a re-mesh without parts has it).
+void join_across_face(const LatticeMesh& lm, const TriangleMesh& surface, const std::vector<ElementClasses>& classes,
+                      const MaterialParts& out, FaceJoin& join) {
+  const TetMesh& mesh = lm.mesh;
+  const Index e0 = join.element[0], e1 = join.element[1];
+  const Index base0 = out.first_part[at(e0)], base1 = out.first_part[at(e1)];
+  const Index n0 = out.num_parts(e0), n1 = out.num_parts(e1);
+  join.parts.clear();
+  if (n0 == 0 || n1 == 0) return;
+  auto join_all = [&] {
+    join.parts.clear();
+    for (Index a = 0; a < n0; ++a)
+      for (Index b = 0; b < n1; ++b) join.parts.push_back({base0 + a, base1 + b});
+  };
+  const ElementClasses& c0 = classes[at(e0)];
+  const ElementClasses& c1 = classes[at(e1)];
+  if (c0.degenerate || c1.degenerate) return join_all();
+  // The face's corners in each element.
+  const auto& f0 = kTetFaces[join.opposite[0]];
+  std::array<int, 3> corner0{}, corner1{};
+  for (int i = 0; i < 3; ++i) {
+    corner0[static_cast<std::size_t>(i)] = f0[i];
+    const Index node = mesh.tets(e0, f0[i]);
+    for (int k = 0; k < 4; ++k)
+      if (mesh.tets(e1, k) == node) corner1[static_cast<std::size_t>(i)] = k;
+  }
+  // Intervals of the face's three edges.
+  for (int i = 0; i < 3; ++i)
+    for (int j = i + 1; j < 3; ++j) {
+      const int a = edge_index(corner0[static_cast<std::size_t>(i)], corner0[static_cast<std::size_t>(j)]);
+      const int b = edge_index(corner1[static_cast<std::size_t>(i)], corner1[static_cast<std::size_t>(j)]);
+      const int len0 = c0.interval_first[static_cast<std::size_t>(a + 1)] - c0.interval_first[static_cast<std::size_t>(a)];
+      const int len1 = c1.interval_first[static_cast<std::size_t>(b + 1)] - c1.interval_first[static_cast<std::size_t>(b)];
+      if (len0 != len1) return join_all();
+      for (int r = 0; r < len0; ++r) {
+        const int p0 = c0.intervals[static_cast<std::size_t>(c0.interval_first[static_cast<std::size_t>(a)] + r)];
+        const int p1 = c1.intervals[static_cast<std::size_t>(c1.interval_first[static_cast<std::size_t>(b)] + r)];
+        if ((p0 >= 0) != (p1 >= 0)) return join_all();
+        if (p0 >= 0) join.parts.push_back({base0 + p0, base1 + p1});
+      }
+    }
+  // Triangles of both elements that cross the face.
+  const std::array<Vec, 3> face = {mesh.positions.row(mesh.tets(e0, corner0[0])).transpose(),
+                                   mesh.positions.row(mesh.tets(e0, corner0[1])).transpose(),
+                                   mesh.positions.row(mesh.tets(e0, corner0[2])).transpose()};
+  Index i = out.pair_first[at(e0)], j = out.pair_first[at(e1)];
+  const Index i_end = out.pair_first[at(e0) + 1], j_end = out.pair_first[at(e1) + 1];
+  while (i < i_end && j < j_end) {
+    const Index t0 = out.pair_triangle[at(i)], t1 = out.pair_triangle[at(j)];
+    if (t0 < t1) {
+      ++i;
+    } else if (t1 < t0) {
+      ++j;
+    } else {
+      const Answer a = triangle_crosses_face(triangle_corners(surface, t0), face);
+      if (a == Answer::degenerate) return join_all();
+      if (a == Answer::yes) join.parts.push_back({out.pair_part[at(i)], out.pair_part[at(j)]});
+      ++i;
+      ++j;
+    }
+  }
+  std::sort(join.parts.begin(), join.parts.end());
+  join.parts.erase(std::unique(join.parts.begin(), join.parts.end()), join.parts.end());
+}
+
+/// The virtual-node copies (Molino, Bao & Fedkiw 2004): each part has its
+/// own copy of its element's four corners; copies of two parts joined
+/// across a face are one at the face's three nodes.
+void copy_nodes(const LatticeMesh& lm, const TriangleMesh& surface, const std::vector<ElementClasses>& classes,
+                MaterialParts& out) {
+  const TetMesh& mesh = lm.mesh;
+  const Index ne = mesh.num_elements();
+  // Shared faces: every element face as its sorted nodes, sorted; equal
+  // neighbours are the two sides of one face.
+  struct Side {
+    std::array<Index, 3> nodes;
+    Index element;
+    int opposite;
+    bool operator<(const Side& o) const { return nodes < o.nodes || (nodes == o.nodes && element < o.element); }
+  };
+  std::vector<Side> sides;
+  sides.reserve(4 * at(ne));
+  for (Index e = 0; e < ne; ++e) {
+    if (out.num_parts(e) == 0) continue;
+    for (int k = 0; k < 4; ++k) {
+      std::array<Index, 3> n = {mesh.tets(e, kTetFaces[k][0]), mesh.tets(e, kTetFaces[k][1]), mesh.tets(e, kTetFaces[k][2])};
+      std::sort(n.begin(), n.end());
+      sides.push_back({n, e, k});
+    }
+  }
+  std::sort(sides.begin(), sides.end());
+  std::vector<FaceJoin> joins;
+  for (std::size_t i = 0; i + 1 < sides.size(); ++i)
+    if (sides[i].nodes == sides[i + 1].nodes)
+      joins.push_back({{sides[i].element, sides[i + 1].element}, {sides[i].opposite, sides[i + 1].opposite}, {}});
+  tbb::parallel_for(std::size_t{0}, joins.size(), [&](std::size_t f) { join_across_face(lm, surface, classes, out, joins[f]); });
+  // Copies: one item per part corner, joined at each joined face's nodes.
+  const Index np = out.first_part.back();
+  UnionFind copies(4 * np);
+  for (const FaceJoin& join : joins)
+    for (const auto& [p0, p1] : join.parts)
+      for (int i = 0; i < 3; ++i) {
+        const int k0 = kTetFaces[join.opposite[0]][i];
+        const Index node = mesh.tets(join.element[0], k0);
+        for (int k1 = 0; k1 < 4; ++k1)
+          if (mesh.tets(join.element[1], k1) == node) copies.unite(4 * p0 + k0, 4 * p1 + k1);
+      }
+  // Numbered in order of first item.
+  std::vector<Index> id(at(4 * np), -1);
+  out.part_nodes.resize(at(np));
+  out.copy_node.clear();
+  Index e = 0;
+  for (Index p = 0; p < np; ++p) {
+    while (out.first_part[at(e) + 1] <= p) ++e;
+    for (int k = 0; k < 4; ++k) {
+      Index& root = id[at(copies.find(4 * p + k))];
+      if (root < 0) {
+        root = static_cast<Index>(out.copy_node.size());
+        out.copy_node.push_back(mesh.tets(e, k));
+      }
+      out.part_nodes[at(p)][static_cast<std::size_t>(k)] = root;
+    }
+  }
+}
+
+}  // namespace
+
+Index MaterialParts::duplicated_nodes() const {
+  std::vector<Index> copies;
+  for (const Index n : copy_node) {
+    if (at(n) >= copies.size()) copies.resize(at(n) + 1, 0);
+    ++copies[at(n)];
+  }
+  return static_cast<Index>(std::count_if(copies.begin(), copies.end(), [](Index c) { return c >= 2; }));
+}
+
+Index MaterialParts::split_elements() const {
+  Index n = 0;
+  for (Index e = 0; e < num_elements(); ++e) n += num_parts(e) >= 2 ? 1 : 0;
+  return n;
+}
+
+Index MaterialParts::degenerate_elements() const {
+  return static_cast<Index>(std::count(degenerate.begin(), degenerate.end(), std::uint8_t{1}));
+}
+
+MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface) {
+  const TetMesh& mesh = lm.mesh;
+  const Index ne = mesh.num_elements();
+  if (static_cast<Index>(lm.node_inside.size()) != mesh.num_nodes())
+    throw Error("material_parts: the lattice mesh has no inside flags for its nodes");
+  const BccLattice& lattice = lm.lattice;
+  // The triangle across each edge (−1 where an edge does not have exactly
+  // two: a surface that is not closed joins nothing there).
+  Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor> across =
+      Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor>::Constant(surface.num_triangles(), 3, -1);
+  {
+    const std::vector<std::array<Index, 4>> sides = sorted_sides(surface.triangles);
+    for (std::size_t i = 0; i < sides.size();) {
+      std::size_t j = i + 1;
+      while (j < sides.size() && sides[j][0] == sides[i][0] && sides[j][1] == sides[i][1]) ++j;
+      if (j == i + 2) {
+        across(sides[i][2], sides[i][3]) = sides[i + 1][2];
+        across(sides[i + 1][2], sides[i + 1][3]) = sides[i][2];
+      }
+      i = j;
+    }
+  }
+
+  // 1. The (element, triangle) pairs whose interiors meet, per chunk of
+  // triangles in parallel, then counted into per-element lists (chunks in
+  // order: triangles increasing in each list).
+  struct Pair {
+    Index element, triangle;
+    bool degenerate;
+    Sides sides;
+  };
+  constexpr std::size_t kChunk = 256;
+  const auto num_triangles = static_cast<std::size_t>(surface.num_triangles());
+  std::vector<std::vector<Pair>> chunks((num_triangles + kChunk - 1) / kChunk);
+  const double slack = 1e-9 * lattice.spacing();
+  tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t chunk) {
+    auto& found = chunks[chunk];
+    for (std::size_t index = chunk * kChunk; index < std::min(num_triangles, (chunk + 1) * kChunk); ++index) {
+      const auto t = static_cast<Index>(index);
+      const auto tri = triangle_corners(surface, t);
+      const Vec lo = tri[0].cwiseMin(tri[1]).cwiseMin(tri[2]), hi = tri[0].cwiseMax(tri[1]).cwiseMax(tri[2]);
+      lattice.for_each_tet_shape_near(lo, hi, [&](BccLattice::Key key, const Eigen::Vector3i& cell, int axis, int edge) {
+        const Index e = lm.element(key);
+        if (e < 0) return;
+        const Corners x = lattice.tet_positions(cell, axis, edge);
+        Vec tet_lo = x[0], tet_hi = x[0];
+        for (const auto& p : x) {
+          tet_lo = tet_lo.cwiseMin(p);
+          tet_hi = tet_hi.cwiseMax(p);
+        }
+        if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any()) return;
+        // A face plane of either that separates them by more than the slack
+        // separates them exactly (the round-off of the projections is far
+        // smaller); the other separating axes are left to the exact test.
+        if (separated_by_a_face_plane(tri, x, slack)) return;
+        const Sides sides = sides_of(x, tri);
+        const Answer a = triangle_meets_tet(x, tri, sides);
+        if (a != Answer::no) found.push_back({e, t, a == Answer::degenerate, sides});
+      });
+    }
+  });
+  MaterialParts out;
+  out.pair_first.assign(at(ne) + 1, 0);
+  out.degenerate.assign(at(ne), 0);
+  for (const auto& chunk : chunks)
+    for (const Pair& p : chunk) ++out.pair_first[at(p.element) + 1];
+  for (std::size_t e = 0; e + 1 < out.pair_first.size(); ++e) out.pair_first[e + 1] += out.pair_first[e];
+  out.pair_triangle.resize(at(out.pair_first.back()));
+  std::vector<Sides> pair_sides(out.pair_triangle.size());
+  {
+    std::vector<Index> fill(out.pair_first.begin(), out.pair_first.end() - 1);
+    for (const auto& chunk : chunks)
+      for (const Pair& p : chunk) {
+        pair_sides[at(fill[at(p.element)])] = p.sides;
+        out.pair_triangle[at(fill[at(p.element)]++)] = p.triangle;
+        if (p.degenerate) out.degenerate[at(p.element)] = 1;
+      }
+  }
+  chunks.clear();
+  chunks.shrink_to_fit();
+
+  // 2. Each element's candidate parts.
+  std::vector<ElementClasses> classes(at(ne));
+  // The apex of the volume sums (step 3): corner 0, which is on no triangle
+  // of a non-degenerate element; in a degenerate one the corner farthest
+  // from the planes of its triangles.
+  std::vector<std::uint8_t> apex(at(ne), 0);
+  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    Scratch scratch;
+    for (Index e = r.begin(); e != r.end(); ++e) {
+      const Corners x = element_corners(mesh, e);
+      std::array<bool, 4> inside{};
+      std::array<Index, 4> nodes{};
+      for (int k = 0; k < 4; ++k) {
+        nodes[static_cast<std::size_t>(k)] = mesh.tets(e, k);
+        inside[static_cast<std::size_t>(k)] = lm.node_inside[at(mesh.tets(e, k))] != 0;
+      }
+      const Index begin = out.pair_first[at(e)];
+      const int m = static_cast<int>(out.pair_first[at(e) + 1] - begin);
+      ElementClasses& c = classes[at(e)];
+      classify_element(x, nodes, inside, surface, across, out.pair_triangle.data() + begin, pair_sides.data() + begin, m,
+                       scratch, c);
+      if (out.degenerate[at(e)] && !c.degenerate) {
+        c.degenerate = true;
+        const bool any = m > 0 || inside[0] || inside[1] || inside[2] || inside[3];
+        c.class_on_edge.assign(any ? 1 : 0, 1);
+        c.triangle_class.assign(static_cast<std::size_t>(m), 0);
+        for (int k = 0; k < 4; ++k) c.corner_class[static_cast<std::size_t>(k)] = inside[static_cast<std::size_t>(k)] ? 0 : -1;
+      }
+      out.degenerate[at(e)] = c.degenerate ? 1 : 0;
+      if (c.degenerate) {
+        double farthest = -1.0;
+        for (int k = 0; k < 4; ++k) {
+          double nearest = std::numeric_limits<double>::infinity();
+          for (int i = 0; i < m; ++i) {
+            const auto t = triangle_corners(surface, out.pair_triangle[at(begin + i)]);
+            const Vec n = (t[1] - t[0]).cross(t[2] - t[0]);
+            if (n.squaredNorm() > 0.0) nearest = std::min(nearest, std::abs(n.normalized().dot(x[static_cast<std::size_t>(k)] - t[0])));
+          }
+          if (nearest > farthest) {
+            farthest = nearest;
+            apex[at(e)] = static_cast<std::uint8_t>(k);
+          }
+        }
+      }
+    }
+  });
+
+  // 3. Each pair's volume share (the cone of its piece from corner 0 minus
+  // the cone over the piece's shadow on the opposite face), from the
+  // triangles sliced along the lattice's planes; pieces of round-off size
+  // in an element the exact test did not find are dropped.
+  std::vector<ConeIntegrals> pair_integrals(out.pair_triangle.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, num_triangles, 64), [&](const tbb::blocked_range<std::size_t>& r) {
+    LatticeSlicer slicer;
+    std::vector<PolygonPart> parts;
+    for (std::size_t index = r.begin(); index != r.end(); ++index) {
+      const auto t = static_cast<Index>(index);
+      Polygon triangle;
+      for (int k = 0; k < 3; ++k) triangle.push(surface.vertices.row(surface.triangles(t, k)).transpose());
+      if ((triangle.v[1] - triangle.v[0]).cross(triangle.v[2] - triangle.v[0]).squaredNorm() == 0.0) continue;
+      slicer.polygon_parts(lattice, triangle, 1e-12, parts);
+      for (const PolygonPart& part : parts) {
+        const Index e = lm.element(part.key);
+        if (e < 0) continue;
+        const auto first = out.pair_triangle.begin() + out.pair_first[at(e)];
+        const auto last = out.pair_triangle.begin() + out.pair_first[at(e) + 1];
+        const auto it = std::lower_bound(first, last, t);
+        if (it == last || *it != t) continue;
+        const Corners x = element_corners(mesh, e);
+        const int k = apex[at(e)];
+        const Vec& p = x[static_cast<std::size_t>(k)];
+        const auto& face = kTetFaces[k];
+        const Vec& a = x[static_cast<std::size_t>(face[0])];
+        const Vec normal = (x[static_cast<std::size_t>(face[1])] - a).cross(x[static_cast<std::size_t>(face[2])] - a).normalized();
+        const double height = normal.dot(a - p);
+        ConeIntegrals integrals;
+        integrals.add_cone(p, part.polygon);
+        Polygon shadow = part.polygon;
+        for (int i = 0; i < shadow.size; ++i) {
+          const Vec y = part.polygon.v[static_cast<std::size_t>(i)] - p;
+          const double along = y.dot(normal);
+          shadow.v[static_cast<std::size_t>(i)] = along > 1e-300 ? Vec(p + y * (height / along)) : p;
+        }
+        integrals.add_cone(p, shadow, -1.0);
+        ConeIntegrals& sum = pair_integrals[static_cast<std::size_t>(it - out.pair_triangle.begin())];
+        sum.volume += integrals.volume;
+        sum.moment += integrals.moment;
+      }
+    }
+  });
+
+  // 4. Candidate volumes; an element with a patch of its own that encloses
+  // air (a hole through its material) keeps one part.
+  out.first_part.assign(at(ne) + 1, 0);
+  std::vector<std::vector<ConeIntegrals>> volumes(at(ne));
+  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index e = r.begin(); e != r.end(); ++e) {
+      ElementClasses& c = classes[at(e)];
+      auto& v = volumes[at(e)];
+      v.assign(static_cast<std::size_t>(c.count()), ConeIntegrals{});
+      const Index begin = out.pair_first[at(e)];
+      for (std::size_t i = 0; i < c.triangle_class.size(); ++i) {
+        ConeIntegrals& sum = v[static_cast<std::size_t>(c.triangle_class[i])];
+        sum.volume += pair_integrals[at(begin) + i].volume;
+        sum.moment += pair_integrals[at(begin) + i].moment;
+      }
+      if (const int k = c.corner_class[apex[at(e)]]; k >= 0) {
+        const Corners x = element_corners(mesh, e);
+        const double w = lm.lattice.tet_volume();
+        v[static_cast<std::size_t>(k)].volume += w;
+        v[static_cast<std::size_t>(k)].moment += w * (0.25 * (x[0] + x[1] + x[2] + x[3]) - x[apex[at(e)]]);
+      }
+      bool hole = false;
+      for (int k = 0; k < c.count(); ++k)
+        hole = hole || (!c.class_on_edge[static_cast<std::size_t>(k)] && !(v[static_cast<std::size_t>(k)].volume > 0.0));
+      if (hole) {
+        ConeIntegrals total;
+        for (const auto& part : v) {
+          total.volume += part.volume;
+          total.moment += part.moment;
+        }
+        v.assign(1, total);
+        c.class_on_edge.assign(1, 1);
+        std::fill(c.triangle_class.begin(), c.triangle_class.end(), 0);
+        for (int& k : c.corner_class)
+          if (k >= 0) k = 0;
+        for (int& k : c.intervals)
+          if (k >= 0) k = 0;
+      }
+      out.first_part[at(e) + 1] = c.count();
+    }
+  });
+  for (std::size_t e = 0; e + 1 < out.first_part.size(); ++e) out.first_part[e + 1] += out.first_part[e];
+  out.part_volume.resize(out.first_part.back());
+  out.part_centroid.resize(out.first_part.back(), 3);
+  out.corner_part.resize(at(ne));
+  out.pair_part.resize(out.pair_triangle.size());
+  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index e = r.begin(); e != r.end(); ++e) {
+      const ElementClasses& c = classes[at(e)];
+      const Index base = out.first_part[at(e)];
+      const Corners x = element_corners(mesh, e);
+      for (int k = 0; k < c.count(); ++k) {
+        const ConeIntegrals& part = volumes[at(e)][static_cast<std::size_t>(k)];
+        out.part_volume[base + k] = part.volume;
+        out.part_centroid.row(base + k) = part.volume > 0.0 ? Vec(x[apex[at(e)]] + part.moment / part.volume).transpose()
+                                                            : Vec(0.25 * (x[0] + x[1] + x[2] + x[3])).transpose();
+      }
+      for (int k = 0; k < 4; ++k) {
+        const int cls = c.corner_class[static_cast<std::size_t>(k)];
+        out.corner_part[at(e)][static_cast<std::size_t>(k)] = cls >= 0 ? base + cls : -1;
+      }
+      const Index begin = out.pair_first[at(e)];
+      for (std::size_t i = 0; i < c.triangle_class.size(); ++i) out.pair_part[at(begin) + i] = base + c.triangle_class[i];
+    }
+  });
+
+  // 5. The parts joined across shared faces, and the node copies.
+  copy_nodes(lm, surface, classes, out);
+  return out;
+}
+
+}  // namespace goo

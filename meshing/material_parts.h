@@ -1,0 +1,84 @@
+#pragma once
+// The material of each element of a lattice mesh (the element ∩ the inside
+// of the surface) split into its connected parts, decided with exact
+// orientation predicates (docs/lattice.md, "Material parts"). Where two
+// sheets of one body pass through an element across a gap of air, its
+// material has two parts; a re-mesh that gives each element one copy glues
+// them. The parts are what a re-mesh needs to give each its own copy of the
+// element (the virtual-node algorithm), and their count is what such a
+// re-mesh would glue.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/parallel.h"
+#include "core/triangle_mesh.h"
+#include "meshing/lattice_mesh.h"
+
+namespace goo {
+
+struct MaterialParts {
+  /// #E + 1: element e's parts are first_part[e] .. first_part[e + 1] − 1
+  /// (none where the element holds no material: kept because a triangle
+  /// touches it).
+  std::vector<Index> first_part;
+  /// #P: the volume of each part (m³, the lattice positions), from the
+  /// divergence theorem with an element corner p as apex (exact_mass.h):
+  ///   V(part) = Σ over the part's surface pieces π of [cone(p, π) − cone(p, π′)]
+  ///             + V(element) if p lies in the part,
+  /// π′ the central projection of π from p onto the face opposite p (the
+  /// rays from p leave the part through its pieces only). p is corner 0,
+  /// which lies on no triangle unless the element is degenerate; there, the
+  /// corner farthest from its triangles' planes.
+  Eigen::VectorXd part_volume;
+  /// #P × 3: the centroid of each part (the element's where its volume is 0).
+  Points part_centroid;
+  /// #E: the part holding each corner of the element (in its tets order),
+  /// −1 where the corner is outside the surface.
+  std::vector<std::array<Index, 4>> corner_part;
+  /// The triangles that meet each element's interior, per element
+  /// (pair_first[e] .. pair_first[e + 1] − 1, triangles increasing), and the
+  /// part each one's piece in the element bounds.
+  std::vector<Index> pair_first, pair_triangle, pair_part;
+  /// #E: 1 where an exact test met a degenerate configuration (a surface
+  /// vertex on a face of the element, an edge through an edge, two sheets
+  /// crossing an element edge within 10⁻⁹ of its length of each other): the
+  /// element's material is then taken as one part, as a re-mesh without
+  /// parts has it.
+  std::vector<std::uint8_t> degenerate;
+
+  /// #P: the node copy at each corner of each part (the virtual-node
+  /// mesh: each part its own copy of the element; copies of parts whose
+  /// material meets on a shared face are one at its three nodes).
+  std::vector<std::array<Index, 4>> part_nodes;
+  /// The lattice mesh node each node copy sits at.
+  std::vector<Index> copy_node;
+
+  [[nodiscard]] Index num_elements() const { return static_cast<Index>(first_part.size()) - 1; }
+  [[nodiscard]] Index num_parts(Index e) const { return first_part[at(e) + 1] - first_part[at(e)]; }
+  /// Elements whose material has two or more parts.
+  [[nodiscard]] Index split_elements() const;
+  [[nodiscard]] Index degenerate_elements() const;
+  /// Lattice nodes with two or more copies.
+  [[nodiscard]] Index duplicated_nodes() const;
+};
+
+/// The connected parts of every element's material. A part is a class of
+/// the union of
+///   - the surface's pieces in the element, joined where two triangles'
+///     shared edge passes through the element's interior (a patch);
+///   - the inside intervals of the element's six edges (the edge between
+///     the surface's crossings of it, in order along the edge, inside and
+///     outside alternating from the corner's exact inside flag);
+/// where a patch joins the inside interval next to each crossing of an edge
+/// by one of its triangles, and an inside corner joins the intervals of its
+/// three edges that end there. A patch that crosses no edge of the element
+/// (a strand through it, a droplet in it) is a part of its own if it encloses
+/// material (positive volume); if it encloses air (a hole through the
+/// material), every candidate part of the element is joined into one.
+/// Requires a closed, outward-oriented surface, the lattice mesh built
+/// around it (positions at rest, inside flags). Parallel over TBB; the same
+/// result for any thread count.
+MaterialParts material_parts(const LatticeMesh& lattice_mesh, const TriangleMesh& surface);
+
+}  // namespace goo
