@@ -95,7 +95,7 @@ nlohmann::json step_stages(const StepTimes& a, const StepTimes& b) {
 nlohmann::json remesh_stages(const RemeshTimes& a, const RemeshTimes& b) {
   return {{"upkeep", a.upkeep - b.upkeep},       {"lattice", a.lattice - b.lattice},
           {"transfer", a.transfer - b.transfer}, {"masses", a.masses - b.masses},
-          {"conservation", a.conservation - b.conservation}};
+          {"separation", a.separation - b.separation},  {"conservation", a.conservation - b.conservation}};
 }
 
 /// The process's peak resident memory so far: VmHWM of /proc/self/status.
@@ -590,6 +590,11 @@ class Run {
                         {"steps", sim_.steps() - steps_before_},
                         {"remeshes", sim_.remeshes()},
                         {"elements", t.elements},
+                        {"nodes", t.nodes},
+                        {"separation",
+                         {{"split_elements", t.separation.split_elements},
+                          {"node_copies", t.separation.node_copies},
+                          {"degenerate_elements", t.separation.degenerate_elements}}},
                         {"surface_triangles", t.surface_triangles},
                         {"stages",
                          {{"integrate", st.integrate - stages_before_.integrate},

@@ -45,6 +45,9 @@ struct RemeshSettings {
   RemeshThresholds thresholds;
   bool upkeep = true;  ///< split and collapse surface edges at each re-mesh
   UpkeepSettings upkeep_settings;
+  /// Copy elements and nodes per part of the material, so that parts of a
+  /// body closer than the spacing share no element (docs/lattice.md).
+  bool separate_parts = false;
 };
 
 struct OutputSettings {

@@ -494,6 +494,7 @@ void read_integrator(Node n, Scene& s) {
 
 void read_remesh(Node n, RemeshSettings& r) {
   optional(n, "enabled", r.enabled, [](const Node& v) { return v.boolean(); });
+  optional(n, "separate_parts", r.separate_parts, [](const Node& v) { return v.boolean(); });
   optional(n, "condition_growth", r.thresholds.condition_growth, [](const Node& v) {
     const double x = v.number();
     if (!(x > 1.0)) v.fail(fmt::format("must be above 1, got {}", x));

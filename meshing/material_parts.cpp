@@ -760,4 +760,126 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface)
   return out;
 }
 
+SeparatedMesh separate_parts(const LatticeMesh& lm, const MaterialParts& parts) {
+  const TetMesh& mesh = lm.mesh;
+  const Index ne = mesh.num_elements();
+  // Elements without material are left out: they hold nothing, and on
+  // nodes of different parts they would join them.
+  const std::vector<Index>& copy_node = parts.copy_node;
+  // Node copies numbered by node, then copy.
+  std::vector<Index> order(copy_node.size());
+  std::iota(order.begin(), order.end(), Index{0});
+  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return copy_node[at(a)] < copy_node[at(b)]; });
+  std::vector<Index> renumbered(copy_node.size());
+  SeparatedMesh out{LatticeMesh{lm.lattice, {}, {}, {}, {}, {}, {}}, {}, {}, {}, {}};
+  out.node.resize(copy_node.size());
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    renumbered[at(order[i])] = static_cast<Index>(i);
+    out.node[i] = copy_node[at(order[i])];
+  }
+  // Element copies.
+  std::vector<std::array<Index, 4>> tets;
+  out.first_copy.assign(at(ne) + 1, 0);
+  for (Index e = 0; e < ne; ++e) {
+    out.first_copy[at(e)] = static_cast<Index>(tets.size());
+    if (parts.num_parts(e) > 0) {
+      for (Index p = parts.first_part[at(e)]; p < parts.first_part[at(e) + 1]; ++p) {
+        std::array<Index, 4> t{};
+        for (int k = 0; k < 4; ++k) t[static_cast<std::size_t>(k)] = renumbered[at(parts.part_nodes[at(p)][static_cast<std::size_t>(k)])];
+        tets.push_back(t);
+        out.element.push_back(e);
+        out.part.push_back(p);
+      }
+    }
+  }
+  out.first_copy[at(ne)] = static_cast<Index>(tets.size());
+  LatticeMesh& c = out.copies;
+  c.lattice = lm.lattice;
+  c.mesh.positions.resize(static_cast<Eigen::Index>(out.node.size()), 3);
+  c.node_keys.resize(out.node.size());
+  c.node_inside.resize(out.node.size());
+  for (std::size_t i = 0; i < out.node.size(); ++i) {
+    c.mesh.positions.row(static_cast<Eigen::Index>(i)) = mesh.positions.row(out.node[i]);
+    c.node_keys[i] = lm.node_keys[at(out.node[i])];
+    c.node_inside[i] = lm.node_inside[at(out.node[i])];
+  }
+  c.mesh.tets.resize(static_cast<Eigen::Index>(tets.size()), 4);
+  c.tet_keys.resize(tets.size());
+  for (std::size_t i = 0; i < tets.size(); ++i) {
+    for (int k = 0; k < 4; ++k) c.mesh.tets(static_cast<Eigen::Index>(i), k) = tets[i][static_cast<std::size_t>(k)];
+    c.tet_keys[i] = lm.tet_keys[at(out.element[i])];
+  }
+  c.element_of_key.assign(lm.element_of_key.size(), -1);
+  for (std::size_t i = tets.size(); i-- > 0;) c.element_of_key[static_cast<std::size_t>(c.tet_keys[i])] = static_cast<Index>(i);
+  c.node_of_key.assign(lm.node_of_key.size(), -1);
+  for (std::size_t i = out.node.size(); i-- > 0;) c.node_of_key[static_cast<std::size_t>(c.node_keys[i])] = static_cast<Index>(i);
+  return out;
+}
+
+std::vector<Index> vertex_copies(const LatticeMesh& lm, const SeparatedMesh& separated, const MaterialParts& parts,
+                                 const TriangleMesh& surface, const std::vector<Index>& vertex_element) {
+  const Index nv = surface.num_vertices();
+  // Each vertex's triangles.
+  std::vector<Index> first(at(nv) + 1, 0), triangles(at(3 * surface.num_triangles()));
+  for (Index t = 0; t < surface.num_triangles(); ++t)
+    for (int k = 0; k < 3; ++k) ++first[at(surface.triangles(t, k)) + 1];
+  for (std::size_t v = 0; v + 1 < first.size(); ++v) first[v + 1] += first[v];
+  {
+    std::vector<Index> fill(first.begin(), first.end() - 1);
+    for (Index t = 0; t < surface.num_triangles(); ++t)
+      for (int k = 0; k < 3; ++k) triangles[at(fill[at(surface.triangles(t, k))]++)] = t;
+  }
+  // The copy of triangle t's part in element e, −1 if t has no piece there
+  // or e has no copy of that part.
+  auto copy_of = [&](Index e, Index t) -> Index {
+    const auto begin = parts.pair_triangle.begin() + parts.pair_first[at(e)];
+    const auto end = parts.pair_triangle.begin() + parts.pair_first[at(e) + 1];
+    const auto it = std::lower_bound(begin, end, t);
+    if (it == end || *it != t) return -1;
+    const Index p = parts.pair_part[static_cast<std::size_t>(it - parts.pair_triangle.begin())];
+    const Index c = separated.first_copy[at(e)] + (p - parts.first_part[at(e)]);
+    return c < separated.first_copy[at(e) + 1] ? c : -1;
+  };
+  std::vector<Index> out(at(nv), -1);
+  tbb::parallel_for(tbb::blocked_range<Index>(0, nv, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index v = r.begin(); v != r.end(); ++v) {
+      const Index e = vertex_element[at(v)];
+      if (e >= 0 && parts.num_parts(e) == 0 && separated.first_copy[at(e) + 1] > separated.first_copy[at(e)]) {
+        out[at(v)] = separated.first_copy[at(e)];
+        continue;
+      }
+      for (Index i = first[at(v)]; i < first[at(v) + 1] && out[at(v)] < 0 && e >= 0; ++i) out[at(v)] = copy_of(e, triangles[at(i)]);
+      if (out[at(v)] >= 0) continue;
+      // The element containing the vertex best among those its triangles
+      // have pieces in (lowest element on a tie).
+      const Eigen::Vector3d x = surface.vertices.row(v).transpose();
+      double best = -std::numeric_limits<double>::infinity();
+      for (Index i = first[at(v)]; i < first[at(v) + 1]; ++i) {
+        const Index t = triangles[at(i)];
+        // Elements holding t: search the elements around the vertex's cell.
+        const Eigen::Vector3i cell = lm.lattice.cell_of(x);
+        for (int dk = -1; dk <= 1; ++dk)
+          for (int dj = -1; dj <= 1; ++dj)
+            for (int di = -1; di <= 1; ++di) {
+              const Eigen::Vector3i c = cell + Eigen::Vector3i(di, dj, dk);
+              if ((c.array() < 0).any() || (c.array() >= lm.lattice.cells().array()).any()) continue;
+              for (int shape = 0; shape < 12; ++shape) {
+                const BccLattice::Key key = lm.lattice.tet_key(c, shape / 4, shape % 4);
+                const Index f = lm.element(key);
+                if (f < 0) continue;
+                const Index copy = copy_of(f, t);
+                if (copy < 0) continue;
+                const double b = lm.lattice.barycentric(key, x).minCoeff();
+                if (b > best || (b == best && copy < out[at(v)])) {
+                  best = b;
+                  out[at(v)] = copy;
+                }
+              }
+            }
+      }
+    }
+  });
+  return out;
+}
+
 }  // namespace goo

@@ -81,4 +81,35 @@ struct MaterialParts {
 /// result for any thread count.
 MaterialParts material_parts(const LatticeMesh& lattice_mesh, const TriangleMesh& surface);
 
+/// The lattice mesh with each element copied once per part of its material
+/// and each node once per node copy (the virtual-node mesh; docs/lattice.md,
+/// "Material parts"). Nodes are numbered by lattice node, then copy; elements
+/// by element, then part. Elements without material (kept because a
+/// triangle touches them) are left out: they hold nothing, and on nodes of
+/// different parts they would join them; so are nodes of no other element.
+struct SeparatedMesh {
+  /// The copies: mesh over node copies at their nodes' positions;
+  /// tet_keys and node_keys per copy (repeated), node_inside per node copy;
+  /// element_of_key and node_of_key give a key's first copy.
+  LatticeMesh copies;
+  std::vector<Index> element;  ///< #copies: the lattice mesh element each copies
+  std::vector<Index> part;     ///< #copies: the part it holds
+  std::vector<Index> node;     ///< #node copies: the lattice mesh node each copies
+  /// #E + 1: element e's copies are first_copy[e] .. first_copy[e + 1] − 1
+  /// (none where it was left out).
+  std::vector<Index> first_copy;
+};
+SeparatedMesh separate_parts(const LatticeMesh& lattice_mesh, const MaterialParts& parts);
+
+/// The copy holding each surface vertex, given the lattice mesh element
+/// embed() chose for it: the copy of the part its triangles bound there (a
+/// vertex strictly inside an element is on all its triangles' pieces there).
+/// Where no triangle of the vertex has a piece in that element (the vertex
+/// on its boundary) or the element was left out, the copy of the part of one
+/// of its triangles in the element that contains the vertex best. −1 only if
+/// the vertex is in no element with a piece of its triangles.
+std::vector<Index> vertex_copies(const LatticeMesh& lattice_mesh, const SeparatedMesh& separated,
+                                 const MaterialParts& parts, const TriangleMesh& surface,
+                                 const std::vector<Index>& vertex_element);
+
 }  // namespace goo

@@ -13,6 +13,7 @@
 #include "core/surface_geometry.h"
 #include "solvers/stepping.h"
 #include "meshing/exact_mass.h"
+#include "meshing/material_parts.h"
 #include "meshing/remesh_trigger.h"
 #include "meshing/transfer.h"
 
@@ -68,9 +69,107 @@ Eigen::VectorXd solid_fractions(const ElementSolid& solid, const Eigen::VectorXd
   return (solid.volume.array() / rest_volumes.array()).max(0.0).min(1.0).matrix();
 }
 
+
+/// The body moved onto the lattice mesh's virtual-node copies where its
+/// material is split (docs/lattice.md, "Material parts"): node state
+/// (positions, velocities) to every copy of a node, element state (rest
+/// shape, Fp, α) to every copy of an element, each copy's solid its part's,
+/// masses from those, the surface vertices to the copies of their parts.
+/// Nothing changes where no element is split and no node copied. Returns
+/// the number of elements with two or more parts.
+Index separate_parts(const LatticeMesh& lm, const TriangleMesh& surface, const ElementSolid& solid,
+                     std::span<const double> det_Fe, Body& body, SeparationReport* report) {
+  const MaterialParts parts = material_parts(lm, surface);
+  if (report) {
+    report->split_elements = parts.split_elements();
+    report->degenerate_elements = parts.degenerate_elements();
+  }
+  if (parts.split_elements() == 0 && parts.duplicated_nodes() == 0) return 0;
+  const SeparatedMesh separated = separate_parts(lm, parts);
+  const LatticeMesh& copies = separated.copies;
+  const Index nc = copies.mesh.num_elements(), nn = copies.mesh.num_nodes();
+  if (report) report->node_copies = nn - lm.mesh.num_nodes();
+  Body out;
+  out.material = body.material;
+  out.rest_positions = copies.mesh.positions;
+  out.positions = copies.mesh.positions;
+  out.velocities.resize(nn, 3);
+  for (Index n = 0; n < nn; ++n) out.velocities.row(n) = body.velocities.row(separated.node[at(n)]);
+  out.tets = copies.mesh.tets;
+  out.Dm_inv.resize(at(nc));
+  out.Fp.resize(at(nc));
+  out.rest_volumes.resize(nc);
+  out.alpha.resize(nc);
+  out.rest_condition.resize(nc);
+  ElementSolid copy_solid;
+  copy_solid.volume.resize(nc);
+  copy_solid.centroid.resize(nc, 3);
+  std::vector<double> copy_det_Fe(at(nc));
+  for (Index c = 0; c < nc; ++c) {
+    const Index e = separated.element[at(c)], p = separated.part[at(c)];
+    out.Dm_inv[at(c)] = body.Dm_inv[at(e)];
+    out.Fp[at(c)] = body.Fp[at(e)];
+    out.rest_volumes[c] = body.rest_volumes[e];
+    out.alpha[c] = body.alpha[e];
+    out.rest_condition[c] = body.rest_condition[e];
+    copy_det_Fe[at(c)] = det_Fe.empty() ? 1.0 : det_Fe[at(e)];
+    // An element of one part keeps the exact masses' clipped solid (the
+    // same bits as without copies); the parts of a split one their own.
+    if (p < 0 || parts.num_parts(e) == 1) {
+      copy_solid.volume[c] = solid.volume[e];
+      copy_solid.centroid.row(c) = solid.centroid.row(e);
+    } else {
+      copy_solid.volume[c] = std::max(parts.part_volume[p], 0.0);
+      copy_solid.centroid.row(c) = parts.part_centroid.row(p);
+    }
+  }
+  out.solid_fractions = solid_fractions(copy_solid, out.rest_volumes);
+  out.masses = exact_node_masses(copies, copy_solid, body.material.density, det_Fe.empty() ? std::span<const double>{} : std::span<const double>(copy_det_Fe),
+                                 body.material.min_mass_fraction);
+  // The copies of one node share its mass more evenly: each gets at least
+  // an equal share, the group rescaled to its sum (so total mass and centre
+  // of mass stay exact: the copies sit at one place). A copy outside its
+  // part's material otherwise weighs as little as the mass floor, and the
+  // contact stages' impulses on such light nodes crossed the armadillo's
+  // surface and blew the bunny press up (docs/lattice.md, "Material parts").
+  {
+    std::vector<Index> first(at(lm.mesh.num_nodes()) + 1, 0);
+    for (const Index n : separated.node) ++first[at(n) + 1];
+    for (std::size_t n = 0; n + 1 < first.size(); ++n) first[n + 1] += first[n];
+    // Copies are numbered by node: node n's are first[n] .. first[n + 1] − 1.
+    for (std::size_t n = 0; n + 1 < first.size(); ++n) {
+      const Index begin = first[n], end = first[n + 1];
+      if (end - begin < 2) continue;
+      double sum = 0.0, raised = 0.0;
+      for (Index c = begin; c < end; ++c) sum += out.masses[c];
+      const double share = sum / static_cast<double>(end - begin);
+      for (Index c = begin; c < end; ++c) raised += std::max(out.masses[c], share);
+      for (Index c = begin; c < end; ++c) out.masses[c] = std::max(out.masses[c], share) * (sum / raised);
+    }
+  }
+  out.rest_material_volume = body.rest_material_volume;
+  out.incidence = NodeIncidence::build(out.tets, nn);
+  out.surface_triangles = body.surface_triangles;
+  // The surface onto the copies of its parts.
+  const Embedding plain = embed(lm, surface.vertices);
+  const std::vector<Index> copy_of_vertex = vertex_copies(lm, separated, parts, surface, plain.parent);
+  out.embedding.parent.resize(plain.parent.size());
+  out.embedding.bary = plain.bary;
+  for (Index v = 0; v < surface.num_vertices(); ++v) {
+    const Index c = copy_of_vertex[at(v)];
+    if (c < 0) throw Error(fmt::format("re-mesh: surface vertex {} lies in no copy of an element", v));
+    out.embedding.parent[at(v)] = c;
+    if (separated.element[at(c)] != plain.parent[at(v)])
+      out.embedding.bary.row(v) = lm.lattice.barycentric(copies.tet_keys[at(c)], surface.vertices.row(v).transpose()).transpose();
+  }
+  body = std::move(out);
+  return parts.split_elements();
+}
+
 }  // namespace
 
-MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, double h) {
+MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, double h, bool separate,
+                     SeparationReport* report) {
   MeshedBody out{Body{}, build_lattice_mesh(surface, h)};
   out.body = body_on_lattice(out.lattice_mesh, material);
   const ElementSolid solid = clip_solid_to_elements(out.lattice_mesh, surface);
@@ -79,10 +178,12 @@ MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, doub
   out.body.masses = exact_node_masses(out.lattice_mesh, solid, material.density, {}, material.min_mass_fraction);
   out.body.surface_triangles = surface.triangles;
   out.body.embedding = embed(out.lattice_mesh, surface.vertices);
+  if (separate) separate_parts(out.lattice_mesh, surface, solid, {}, out.body, report);
   return out;
 }
 
 namespace {
+
 
 /// The old body's velocities (interpolated in its deformed elements), its
 /// elastic state (Fe = F Fp⁻¹ averaged as left stretches, scaled so that the
@@ -90,7 +191,8 @@ namespace {
 /// state, on the new mesh `body` around `surface`. Returns where each new
 /// node was found in the old mesh.
 NodeSources transfer_state(const Body& old, const TriangleMesh& surface, const LatticeMesh& lm, Body& body,
-                           RemeshReport* report, RemeshTimes& times, StageTimer& timer) {
+                           RemeshReport* report, RemeshTimes& times, StageTimer& timer, ElementSolid& solid,
+                           std::vector<double>& det_Fe) {
   const NodeSources sources = locate_in_old_mesh(old.tets, old.positions, lm);
   body.velocities = interpolate(sources, old.tets, old.velocities);
   std::vector<Eigen::Matrix3d> old_Fe(at(old.num_elements()));
@@ -108,14 +210,14 @@ NodeSources transfer_state(const Body& old, const TriangleMesh& surface, const L
   // error, which would act as a pressure and, re-mesh after re-mesh, drive
   // the body to the wrong volume. One factor on every Fe restores it:
   // Fe ← r^(−1/3) Fe, r = V_rest / Σ V_solid / det Fe.
-  const ElementSolid solid = clip_solid_to_elements(lm, surface);
+  solid = clip_solid_to_elements(lm, surface);
   double rest_volume = 0.0;
   for (Index e = 0; e < body.num_elements(); ++e) rest_volume += solid.volume[e] / state.Fe[at(e)].determinant();
   const double r = old.rest_material_volume > 0.0 && rest_volume > 0.0 ? old.rest_material_volume / rest_volume : 1.0;
   const double fe_scale = std::cbrt(1.0 / r);
   body.rest_material_volume = old.rest_material_volume > 0.0 ? old.rest_material_volume : rest_volume;
   if (report) report->rest_volume_error = std::abs(r - 1.0);
-  std::vector<double> det_Fe(at(body.num_elements()));
+  det_Fe.assign(at(body.num_elements()), 1.0);
   for (Index e = 0; e < body.num_elements(); ++e) {
     // F = I on the new mesh, so Fe = Fp⁻¹: Fp = Fe⁻¹ (det Fp = 1 / det Fe).
     const Eigen::Matrix3d Fe = fe_scale * state.Fe[at(e)];
@@ -186,7 +288,7 @@ void restore_totals(const Body& old, const TriangleMesh& surface, const NodeSour
 }  // namespace
 
 MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, RemeshReport* report,
-                  const UpkeepSettings* upkeep, const TriangleMesh* others) {
+                  const UpkeepSettings* upkeep, const TriangleMesh* others, bool separate) {
   StageTimer timer;
   RemeshTimes times;
   TriangleMesh upkept;
@@ -202,10 +304,16 @@ MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, Remesh
   Body& body = out.body;
   body = body_on_lattice(lm, old.material);
   times.lattice = timer.lap();
-  const NodeSources sources = transfer_state(old, surface, lm, body, report, times, timer);
-  restore_totals(old, surface, sources, body, report);
+  ElementSolid solid;
+  std::vector<double> det_Fe;
+  const NodeSources sources = transfer_state(old, surface, lm, body, report, times, timer, solid, det_Fe);
   body.surface_triangles = surface.triangles;
   body.embedding = embed(lm, surface.vertices);
+  if (separate) {
+    separate_parts(lm, surface, solid, det_Fe, body, report ? &report->separation : nullptr);
+    times.separation = timer.lap();
+  }
+  restore_totals(old, surface, sources, body, report);
   times.conservation = timer.lap();
   if (report) report->times = times;
   return out;

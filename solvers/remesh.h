@@ -24,11 +24,12 @@ struct RemeshTimes {
   double lattice = 0.0;       ///< the new lattice mesh around the surface
   double transfer = 0.0;      ///< velocities and elastic state from the old mesh
   double masses = 0.0;        ///< the solid clipped to the elements, exact masses
+  double separation = 0.0;    ///< the material's parts found and the elements and nodes copied per part
   double conservation = 0.0;  ///< mass, centre and momentum restored; the surface embedded
 
   RemeshTimes& operator+=(const RemeshTimes& o) {
     upkeep += o.upkeep, lattice += o.lattice, transfer += o.transfer, masses += o.masses;
-    conservation += o.conservation;
+    separation += o.separation, conservation += o.conservation;
     return *this;
   }
 };
@@ -36,6 +37,14 @@ struct RemeshTimes {
 /// What a re-mesh did, and how far the transferred state missed the
 /// conserved totals before the conservation step (discretisation error of
 /// the averaged density; round-off when the old state was uniform).
+/// What copying elements and nodes per part of the material did
+/// (docs/lattice.md, "Material parts").
+struct SeparationReport {
+  Index split_elements = 0;       ///< elements whose material has two or more parts
+  Index node_copies = 0;          ///< nodes added as copies
+  Index degenerate_elements = 0;  ///< elements taken as one part for a degenerate configuration
+};
+
 struct RemeshReport {
   Index old_elements = 0;
   Index new_elements = 0;
@@ -46,13 +55,20 @@ struct RemeshReport {
   double momentum_error = 0.0;   ///< |P_new − P_old| / (M_old max |v_old|), 0 at rest
   double rest_volume_error = 0.0;  ///< |r − 1|: how far the averaged state missed the stress-free volume
   UpkeepReport upkeep;           ///< the surface upkeep before meshing, if asked for
+  SeparationReport separation;   ///< the copies per part of the material, if asked for
   RemeshTimes times;
 };
 
 /// The first mesh of a body: every lattice tetrahedron of spacing h around
 /// the closed surface, rest shape = lattice shape, F = Fp = I, at rest,
 /// exact sub-element masses (clamped by material.min_mass_fraction).
-MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, double h);
+/// With `separate`, every element is copied once per connected part of its
+/// material and every node once per copy (virtual nodes, docs/lattice.md
+/// "Material parts"), so that material a lattice spacing apart shares no
+/// element and no node; the body then has the copies as its elements and
+/// nodes (`lattice_mesh` stays the plain one).
+MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, double h, bool separate = false,
+                     SeparationReport* report = nullptr);
 
 /// A new lattice mesh of spacing h around the current surface (`surface`:
 /// the body's triangles at their current, embedded positions), with rest
@@ -72,8 +88,11 @@ MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, doub
 /// With `upkeep`, long edges are split and short ones collapsed first
 /// (W&T fig. 8); splits move nothing, collapses change the volume by at most
 /// report->upkeep.volume_change_bound, and none makes the surface meet
-/// itself or `others` (the other bodies' surfaces).
+/// itself or `others` (the other bodies' surfaces). With `separate`, the
+/// new mesh is copied per part of the material as mesh_body() does: each
+/// copy of a node gets the node's transferred velocity, each copy of an
+/// element the element's transferred state, each its part's exact mass.
 MeshedBody remesh(const Body& body, const TriangleMesh& surface, double h, RemeshReport* report = nullptr,
-                  const UpkeepSettings* upkeep = nullptr, const TriangleMesh* others = nullptr);
+                  const UpkeepSettings* upkeep = nullptr, const TriangleMesh* others = nullptr, bool separate = false);
 
 }  // namespace goo

@@ -129,7 +129,7 @@ Simulation::Simulation(const Scene& scene) : scene_(scene) {
       b.lattice = true;
       b.h = object.lattice_spacing;
       centre = surface_integrals(*object.surface).centroid;
-      b.body = mesh_body(*object.surface, object.material, b.h).body;
+      b.body = mesh_body(*object.surface, object.material, b.h, scene_.remesh.separate_parts, &b.separation).body;
     } else {
       b.body = make_body(*object.tet_mesh, object.material, object.name);
       embed_boundary(b.body);
@@ -430,7 +430,7 @@ void Simulation::remesh_if_due(std::size_t i) {
   std::optional<MeshedBody> attempt;
   try {
     attempt = remesh(b.body, surface, b.h, &report, scene_.remesh.upkeep ? &scene_.remesh.upkeep_settings : nullptr,
-                     together_ ? &others : nullptr);
+                     together_ ? &others : nullptr, scene_.remesh.separate_parts);
   } catch (const Error& e) {
     // A mesh with no valid element left (every element inverted) cannot
     // carry its state across; the elasticity turns the elements back first.
@@ -441,6 +441,7 @@ void Simulation::remesh_if_due(std::size_t i) {
   times_.remesh_stages += report.times;
   MeshedBody& meshed = *attempt;
   b.body = std::move(meshed.body);
+  b.separation = report.separation;
   b.pinned = nodes_in(b.body.positions, b.regions);
   for (const Index n : b.pinned) b.body.velocities.row(n).setZero();
   attach(i, t);
@@ -448,9 +449,9 @@ void Simulation::remesh_if_due(std::size_t i) {
   times_.remesh += seconds_since(start);
   log().debug(
       "re-mesh of '{}' at t = {:.6g} s: {} → {} elements (element {}, vertex {}, growth {:.3g}); rest volume missed "
-      "by {:.3g}, mass by {:.3g} before correction",
+      "by {:.3g}, mass by {:.3g} before correction; {} elements split, {} node copies",
       b.name, t, report.old_elements, report.new_elements, check.element, check.vertex, check.worst_growth,
-      report.rest_volume_error, report.mass_error);
+      report.rest_volume_error, report.mass_error, report.separation.split_elements, report.separation.node_copies);
 }
 
 bool Simulation::advance_to(double t_end, const std::function<bool()>& stop) {
@@ -498,6 +499,9 @@ SimulationTotals Simulation::totals() const {
     out.elements += body.num_elements();
     out.surface_vertices += body.embedding.num_vertices();
     out.surface_triangles += static_cast<Index>(body.surface_triangles.rows());
+    out.separation.split_elements += b.separation.split_elements;
+    out.separation.node_copies += b.separation.node_copies;
+    out.separation.degenerate_elements += b.separation.degenerate_elements;
   }
   return out;
 }

@@ -49,6 +49,7 @@ struct SimulationTotals {
   Index elements = 0;
   Index surface_vertices = 0;
   Index surface_triangles = 0;
+  SeparationReport separation;  ///< of the bodies' current meshes (remesh.separate_parts)
 };
 
 struct SimulationBody {
@@ -58,6 +59,7 @@ struct SimulationBody {
   double h = 0.0;        ///< lattice spacing, m
   std::vector<PinnedRegion> regions;
   std::vector<Index> pinned;  ///< node ids held still
+  SeparationReport separation;  ///< how its current mesh was copied per part of the material
   SelfCollisionSettings self_collisions;
 };
 

@@ -244,6 +244,13 @@ TEST(Scene, SelfCollisionsAreOnUnlessSwitchedOff) {
                                             "/objects/0/self_collisions must be an object"));
 }
 
+TEST(Scene, SeparatingTheMaterialsPartsIsOffUnlessSwitchedOn) {
+  EXPECT_FALSE(parse(with_object(kCube)).remesh.separate_parts);
+  EXPECT_TRUE(parse(with_object(kCube, R"("remesh": {"separate_parts": true},)")).remesh.separate_parts);
+  EXPECT_TRUE(test::throws_error_containing(
+      [&] { parse(with_object(kCube, R"("remesh": {"separate_parts": 1},)")); }, "/remesh/separate_parts must be"));
+}
+
 TEST(Scene, BodiesCollideWithEachOtherUnlessSwitchedOff) {
   const auto with = [](const std::string& value) {
     return with_object(kCube, fmt::format(R"("collisions_between_bodies": {},)", value));

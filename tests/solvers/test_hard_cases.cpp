@@ -6,7 +6,9 @@
 #include <fmt/format.h>
 
 #include "core/elastic_forces.h"
+#include "core/primitives.h"
 #include "core/surface_geometry.h"
+#include "meshing/surface_intersections.h"
 #include "io/scene_io.h"
 #include "solvers/simulation.h"
 #include "tests/common/test_common.h"
@@ -154,6 +156,46 @@ TEST(HardCases, EveryElementInitiallyInverted) {
   // At rest and free of external force, the momentum stays zero: each step
   // adds round-off of about ε per unit of M v, v below 50 m/s here.
   EXPECT_LT(sim.totals().momentum.norm(), static_cast<double>(sim.steps()) * 1e-15 * start.mass * 50.0);
+}
+
+// Two cubes of one body stacked a third of the spacing apart, the lower
+// one on the floor. With the material's parts separated (remesh
+// "separate_parts") the upper cube falls the gap onto the lower one, as two
+// separate pieces of material do (in free fall it covers h/3 in
+// √(2 h / 3g) ≈ 0.037 s; after 0.25 s it rests there, perhaps tilted, its
+// centre within half the gap of 0.1 m above the lower one's). Without, the
+// elements across the gap hold it open: the centres' height difference
+// changes only by the cubes' strain under the upper one's weight
+// (ρ g L / E ≈ 1e3 · 9.81 · 0.1 / 1e5 ≈ 1%, 1 mm at most, against the half
+// gap's 4 mm), so it stays above 0.1 m and half the gap. The surface never
+// crosses itself in either.
+TEST(HardCases, StackedCubesOfOneBodyStayApartOnlyWhenGlued) {
+  const double h = 0.025, gap = h / 3.0;
+  TriangleMesh lower = make_box({0.1, 0.1, 0.1}, 4), upper = lower;
+  lower.vertices.rowwise() += Eigen::RowVector3d(0.0013, 0.0021, 0.0501);
+  upper.vertices.rowwise() += Eigen::RowVector3d(0.0013, 0.0021, 0.1501 + gap);
+  const TriangleMesh stack = test::joined(lower, upper);
+  const Index half = lower.num_vertices();
+  auto final_gap = [&](bool separate) {
+    Scene scene = scene_from(fmt::format(R"({{"ground": {{"height": 0.0, "friction": 0.5}}, "remesh": {{"separate_parts": {}}},
+        "objects": [{{"primitive": {{"type": "box", "size": [0.1, 0.1, 0.1], "subdivisions": 4}},
+                     "material": {{"density": 1000, "youngs_modulus": 1e5, "poisson_ratio": 0.3, "viscosity": 2}},
+                     "lattice_spacing": {}}}]}})",
+                                         separate, h));
+    scene.objects[0].surface = stack;
+    Simulation sim(scene);
+    const SimulationTotals start = sim.totals();
+    sim.advance_to(0.25);
+    const TriangleMesh surface = sim.bodies()[0].body.surface();
+    const double lower_z = surface.vertices.col(2).head(half).mean(), upper_z = surface.vertices.col(2).tail(half).mean();
+    EXPECT_EQ(measure_surface_quality(surface).self_intersecting_pairs, 0);
+    expect_kept(sim, start);
+    return upper_z - lower_z - 0.1;  // the gap between the centres' heights, less the cubes' size
+  };
+  const double glued = final_gap(false), apart = final_gap(true);
+  ::testing::Test::RecordProperty("gaps", fmt::format("{:.3e} {:.3e}", glued, apart));
+  EXPECT_GT(glued, 0.5 * gap);
+  EXPECT_LT(apart, 0.5 * gap);
 }
 
 }  // namespace

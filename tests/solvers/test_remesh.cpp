@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
+#include <iterator>
 #include <random>
 
 #include "core/elastic_forces.h"
@@ -120,6 +122,90 @@ TEST(Remesh, DoesNotMoveTheSurfaceAndConservesMassCentreAndMomentum) {
   const Eigen::Vector3d c_new = mb.body.positions.transpose() * mb.body.masses / M;
   EXPECT_LT((c_new - c_old).norm(), 1e-13 * size);
   EXPECT_LT((linear_momentum(mb.body) - linear_momentum(old.body)).norm(), 1e-13 * linear_momentum(old.body).norm() + 1e-13 * M);
+}
+
+/// Two boxes one body, a third of the spacing apart across x, tilted: the
+/// elements across the gap hold material of both.
+TriangleMesh boxes_across_a_gap(double h) {
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1.0, 2.0, 0.5).normalized()).toRotationMatrix();
+  TriangleMesh a = make_box({0.5, 0.4, 0.3}, 3), b = a;
+  a.vertices = (a.vertices * R.transpose()).rowwise() + Eigen::RowVector3d(0.013, -0.021, 0.007);
+  b.vertices = (b.vertices * R.transpose()).rowwise() + (R * Eigen::Vector3d(0.5 + h / 3.0, 0.0, 0.0) + Eigen::Vector3d(0.013, -0.021, 0.007)).transpose();
+  return test::joined(a, b);
+}
+
+/// The nodes of the elements holding the surface vertices [first, last).
+std::vector<Index> nodes_holding(const Body& body, Index first, Index last) {
+  std::vector<Index> out;
+  for (Index v = first; v < last; ++v)
+    for (int k = 0; k < 4; ++k) out.push_back(body.tets(body.embedding.parent[at(v)], k));
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+Index shared(const std::vector<Index>& a, const std::vector<Index>& b) {
+  std::vector<Index> both;
+  std::set_intersection(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(both));
+  return static_cast<Index>(both.size());
+}
+
+// With the material's parts separated, the two boxes share no node (the
+// plain lattice mesh joins them through the elements across the gap); the
+// copies carry exactly the solid's mass and reproduce the surface; and a
+// re-mesh of the moved body keeps them apart and conserves its totals.
+TEST(Remesh, SeparatedPartsShareNoNodeAndConserveMass) {
+  const double h = 0.1;
+  const TriangleMesh surface = boxes_across_a_gap(h);
+  const Index half = surface.num_vertices() / 2;
+  Material material = jelly();
+  material.min_mass_fraction = 0.0;  // the exact masses alone
+  const MeshedBody plain = mesh_body(surface, material, h);
+  SeparationReport report;
+  const MeshedBody separated = mesh_body(surface, material, h, true, &report);
+  EXPECT_GT(shared(nodes_holding(plain.body, 0, half), nodes_holding(plain.body, half, 2 * half)), 0);
+  EXPECT_EQ(shared(nodes_holding(separated.body, 0, half), nodes_holding(separated.body, half, 2 * half)), 0);
+  EXPECT_GT(report.split_elements, 10) << "degenerate " << report.degenerate_elements;
+  EXPECT_EQ(report.node_copies, separated.body.num_nodes() - plain.body.num_nodes());
+  EXPECT_GT(report.node_copies, 0);
+  const double size = bounding_box(surface.vertices).diagonal().norm();
+  EXPECT_TRUE(test::matrices_near(separated.surface().vertices, surface.vertices, 1e-14 * size));
+  const double M = material.density * surface_integrals(surface).volume;
+  EXPECT_NEAR(separated.body.masses.sum(), M, 1e-10 * M);
+  EXPECT_NEAR(separated.body.rest_material_volume, plain.body.rest_material_volume, 1e-12 * plain.body.rest_material_volume);
+  // Moved by a uniform stretch and rotation, with an affine velocity.
+  MeshedBody old = separated;
+  const Eigen::Matrix3d A = stretch_and_rotation();
+  const Eigen::Matrix3d B = (Eigen::Matrix3d() << 0.0, -0.4, 0.2, 0.4, 0.0, -0.3, -0.2, 0.3, 0.0).finished();
+  old.body.positions = old.body.rest_positions * A.transpose();
+  old.body.velocities = old.body.positions * B.transpose();
+  const TriangleMesh moved = old.surface();
+  RemeshReport remeshed;
+  const MeshedBody mb = remesh(old.body, moved, h, &remeshed, nullptr, nullptr, true);
+  EXPECT_GT(remeshed.separation.split_elements, 10);
+  EXPECT_EQ(shared(nodes_holding(mb.body, 0, half), nodes_holding(mb.body, half, 2 * half)), 0);
+  EXPECT_TRUE(test::matrices_near(mb.surface().vertices, moved.vertices, 1e-14 * size));
+  const double M_old = old.body.masses.sum();
+  EXPECT_NEAR(mb.body.masses.sum(), M_old, 1e-13 * M_old);
+  EXPECT_LT((linear_momentum(mb.body) - linear_momentum(old.body)).norm(), 1e-12 * linear_momentum(old.body).norm());
+  const Eigen::Vector3d c_old = old.body.positions.transpose() * old.body.masses / M_old;
+  const Eigen::Vector3d c_new = mb.body.positions.transpose() * mb.body.masses / M_old;
+  EXPECT_LT((c_new - c_old).norm(), 1e-12 * size);
+}
+
+// Where nothing is split (one sphere), separating changes nothing: the same
+// body, bit for bit.
+TEST(Remesh, SeparatingAnUnsplitBodyChangesNothing) {
+  const MeshedBody plain = mesh_body(make_sphere(0.5, 20), jelly(), 0.1);
+  SeparationReport report;
+  const MeshedBody separated = mesh_body(make_sphere(0.5, 20), jelly(), 0.1, true, &report);
+  EXPECT_EQ(report.split_elements, 0);
+  EXPECT_EQ(report.node_copies, 0);
+  EXPECT_EQ(separated.body.tets, plain.body.tets);
+  EXPECT_EQ(separated.body.positions, plain.body.positions);
+  EXPECT_EQ(separated.body.masses, plain.body.masses);
+  EXPECT_EQ(separated.body.embedding.parent, plain.body.embedding.parent);
+  EXPECT_EQ(separated.body.embedding.bary, plain.body.embedding.bary);
 }
 
 // A non-uniform state: averaging makes the new density differ from the old
