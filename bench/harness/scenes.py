@@ -9,7 +9,7 @@ from common import goo_run, log, plt, save_figure, table, write_csv, write_json
 
 # The finest split goo reports: the integrator's stages, the re-mesh's stages, and the rest.
 STEP = ["forces", "damping", "hessian", "linear_solve", "collisions", "self_collisions", "volume", "surface", "other"]
-REMESH = ["upkeep", "lattice", "transfer", "masses", "conservation"]
+REMESH = ["upkeep", "lattice", "transfer", "masses", "separation", "conservation"]
 REST = ["remesh_check", "safety_checks", "frames_output", "surface_quality"]
 
 
@@ -65,6 +65,7 @@ def run_section(ctx):
                               "creased_percent": 100.0 * q["creased_edges"] / max(1, q["edges"]),
                               "volume_ratio": q["volume"] / surfaces[0]["volume"],
                               "facing_percent": 100.0 * q.get("facing_sheets_area", 0.0) / q["area"],
+                              "split_elements": record.get("separation", {}).get("split_elements", 0),
                               **{f"{k}_seconds": v for k, v in split(record["stages"], record["integrate_stages"],
                                                                      record["remesh_stages"]).items()}})
     write_json(ctx.path("scenes.json"), {"scenes": rows, "per_frame": per_frame})
