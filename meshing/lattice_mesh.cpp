@@ -26,7 +26,8 @@ BccLattice block_around(const TriangleMesh& surface, double h) {
 
 }  // namespace
 
-bool overlaps_inflated(const std::array<Eigen::Vector3d, 3>& tri, const std::array<Eigen::Vector3d, 4>& tet, double slack) {
+bool overlaps_inflated(const std::array<Eigen::Vector3d, 3>& tri, const std::array<Eigen::Vector3d, 4>& tet, double slack,
+                       bool edge_axes) {
   auto separated = [&](const Eigen::Vector3d& axis) {
     const double length = axis.norm();
     if (length < 1e-300) return false;
@@ -49,6 +50,7 @@ bool overlaps_inflated(const std::array<Eigen::Vector3d, 3>& tri, const std::arr
     if (separated((tet[static_cast<std::size_t>(f[1])] - a).cross(tet[static_cast<std::size_t>(f[2])] - a)))
       return false;
   }
+  if (!edge_axes) return true;
   static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
   for (const auto& e : tri_edges)
     for (const auto& te : kEdges) {

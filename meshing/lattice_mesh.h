@@ -37,8 +37,11 @@ struct LatticeMesh {
 /// Separating-axis test of a triangle and a tetrahedron, with both inflated
 /// by `slack` along every axis: touching counts as overlapping, so coverage
 /// is never lost to round-off (extra tetrahedra are harmless); false only
-/// when a plane separates them by more than `slack`.
-bool overlaps_inflated(const std::array<Eigen::Vector3d, 3>& tri, const std::array<Eigen::Vector3d, 4>& tet, double slack);
+/// when a plane separates them by more than `slack`. Without `edge_axes`,
+/// only the five face planes are tried (a cheaper filter: true may then
+/// also mean separated along an edge–edge axis).
+bool overlaps_inflated(const std::array<Eigen::Vector3d, 3>& tri, const std::array<Eigen::Vector3d, 4>& tet, double slack,
+                       bool edge_axes = true);
 
 /// The lattice block of spacing h around `surface` (aligned to the world
 /// grid of spacing h, two cells of margin), and every lattice tetrahedron

@@ -129,31 +129,6 @@ Answer triangle_meets_tet(const Corners& x, const std::array<Vec, 3>& t, const S
   return undecided ? Answer::degenerate : Answer::no;
 }
 
-/// Whether the plane of the triangle or of a face of the tetrahedron has
-/// one of them on its far side by more than `slack` (a cheap filter before
-/// the exact tests).
-bool separated_by_a_face_plane(const std::array<Vec, 3>& t, const Corners& x, double slack) {
-  auto apart = [&](const Vec& axis) {
-    const double length = axis.norm();
-    double t0 = t[0].dot(axis), t1 = t0, k0 = x[0].dot(axis), k1 = k0;
-    for (const auto& p : t) {
-      t0 = std::min(t0, p.dot(axis));
-      t1 = std::max(t1, p.dot(axis));
-    }
-    for (const auto& p : x) {
-      k0 = std::min(k0, p.dot(axis));
-      k1 = std::max(k1, p.dot(axis));
-    }
-    return t1 + slack * length < k0 || k1 + slack * length < t0;
-  };
-  if (apart((t[1] - t[0]).cross(t[2] - t[0]))) return true;
-  for (const auto& f : kTetFaces) {
-    const Vec& a = x[static_cast<std::size_t>(f[0])];
-    if (apart((x[static_cast<std::size_t>(f[1])] - a).cross(x[static_cast<std::size_t>(f[2])] - a))) return true;
-  }
-  return false;
-}
-
 Corners element_corners(const TetMesh& mesh, Index e) {
   return {mesh.positions.row(mesh.tets(e, 0)).transpose(), mesh.positions.row(mesh.tets(e, 1)).transpose(),
           mesh.positions.row(mesh.tets(e, 2)).transpose(), mesh.positions.row(mesh.tets(e, 3)).transpose()};
@@ -571,7 +546,7 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface)
         // A face plane of either that separates them by more than the slack
         // separates them exactly (the round-off of the projections is far
         // smaller); the other separating axes are left to the exact test.
-        if (separated_by_a_face_plane(tri, x, slack)) return;
+        if (!overlaps_inflated(tri, x, slack, false)) return;
         const Sides sides = sides_of(x, tri);
         const Answer a = triangle_meets_tet(x, tri, sides);
         if (a != Answer::no) found.push_back({e, t, a == Answer::degenerate, sides});
