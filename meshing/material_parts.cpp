@@ -819,14 +819,10 @@ std::vector<Index> vertex_copies(const LatticeMesh& lm, const SeparatedMesh& sep
   tbb::parallel_for(tbb::blocked_range<Index>(0, nv, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
     for (Index v = r.begin(); v != r.end(); ++v) {
       const Index e = vertex_element[at(v)];
-      if (e >= 0 && parts.num_parts(e) == 0 && separated.first_copy[at(e) + 1] > separated.first_copy[at(e)]) {
-        out[at(v)] = separated.first_copy[at(e)];
-        continue;
-      }
       for (Index i = first[at(v)]; i < first[at(v) + 1] && out[at(v)] < 0 && e >= 0; ++i) out[at(v)] = copy_of(e, triangles[at(i)]);
       if (out[at(v)] >= 0) continue;
       // The element containing the vertex best among those its triangles
-      // have pieces in (lowest element on a tie).
+      // have pieces in (the lowest copy on a tie).
       const Eigen::Vector3d x = surface.vertices.row(v).transpose();
       double best = -std::numeric_limits<double>::infinity();
       for (Index i = first[at(v)]; i < first[at(v) + 1]; ++i) {

@@ -115,7 +115,7 @@ Index separate_parts(const LatticeMesh& lm, const TriangleMesh& surface, const E
     copy_det_Fe[at(c)] = det_Fe.empty() ? 1.0 : det_Fe[at(e)];
     // An element of one part keeps the exact masses' clipped solid (the
     // same bits as without copies); the parts of a split one their own.
-    if (p < 0 || parts.num_parts(e) == 1) {
+    if (parts.num_parts(e) == 1) {
       copy_solid.volume[c] = solid.volume[e];
       copy_solid.centroid.row(c) = solid.centroid.row(e);
     } else {
