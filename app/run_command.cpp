@@ -93,9 +93,12 @@ nlohmann::json step_stages(const StepTimes& a, const StepTimes& b) {
 
 /// The same for a re-mesh's stages.
 nlohmann::json remesh_stages(const RemeshTimes& a, const RemeshTimes& b) {
-  return {{"upkeep", a.upkeep - b.upkeep},       {"lattice", a.lattice - b.lattice},
-          {"transfer", a.transfer - b.transfer}, {"masses", a.masses - b.masses},
-          {"separation", a.separation - b.separation},  {"conservation", a.conservation - b.conservation}};
+  return {{"upkeep", a.upkeep - b.upkeep},
+          {"lattice", a.lattice - b.lattice},
+          {"transfer", a.transfer - b.transfer},
+          {"masses", a.masses - b.masses},
+          {"separation", a.separation - b.separation},
+          {"conservation", a.conservation - b.conservation}};
 }
 
 /// The process's peak resident memory so far: VmHWM of /proc/self/status.

@@ -7,18 +7,18 @@
 #include <filesystem>
 #include <map>
 
+#include "bench/bench_models.h"
 #include "core/elastic_forces.h"
 #include "core/surface_check.h"
 #include "core/surface_geometry.h"
 #include "io/surface_mesh_io.h"
 #include "meshing/exact_mass.h"
-#include "meshing/material_parts.h"
 #include "meshing/lattice_mesh.h"
+#include "meshing/material_parts.h"
 #include "meshing/surface_upkeep.h"
 #include "meshing/transfer.h"
-#include "solvers/remesh.h"
 #include "meshing/voxelize.h"
-#include "bench/bench_models.h"
+#include "solvers/remesh.h"
 
 namespace {
 

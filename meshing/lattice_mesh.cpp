@@ -26,8 +26,8 @@ BccLattice block_around(const TriangleMesh& surface, double h) {
 
 }  // namespace
 
-bool overlaps_inflated(const std::array<Eigen::Vector3d, 3>& tri, const std::array<Eigen::Vector3d, 4>& tet, double slack,
-                       bool edge_axes) {
+bool overlaps_inflated(const std::array<Eigen::Vector3d, 3>& tri, const std::array<Eigen::Vector3d, 4>& tet,
+                       double slack, bool edge_axes) {
   auto separated = [&](const Eigen::Vector3d& axis) {
     const double length = axis.norm();
     if (length < 1e-300) return false;

@@ -40,8 +40,8 @@ struct LatticeMesh {
 /// when a plane separates them by more than `slack`. Without `edge_axes`,
 /// only the five face planes are tried (a cheaper filter: true may then
 /// also mean separated along an edge–edge axis).
-bool overlaps_inflated(const std::array<Eigen::Vector3d, 3>& tri, const std::array<Eigen::Vector3d, 4>& tet, double slack,
-                       bool edge_axes = true);
+bool overlaps_inflated(const std::array<Eigen::Vector3d, 3>& tri, const std::array<Eigen::Vector3d, 4>& tet,
+                       double slack, bool edge_axes = true);
 
 /// The lattice block of spacing h around `surface` (aligned to the world
 /// grid of spacing h, two cells of margin), and every lattice tetrahedron

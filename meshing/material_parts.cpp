@@ -52,16 +52,19 @@ struct Sides {
   std::array<std::int8_t, 4> corner{};                 ///< [corner]
 };
 
-const Vec& face_corner(const Corners& x, int f, int i) { return x[static_cast<std::size_t>(kTetFaces[f][i])]; }
+const Vec& face_corner(const Corners& x, int f, int i) {
+  return x[static_cast<std::size_t>(kTetFaces[f][i])];
+}
 
 Sides sides_of(const Corners& x, const std::array<Vec, 3>& t) {
   Sides s;
   for (int i = 0; i < 3; ++i)
     for (int f = 0; f < 4; ++f)
-      s.vertex[static_cast<std::size_t>(i)][static_cast<std::size_t>(f)] = static_cast<std::int8_t>(
-          exact::orient_3d(face_corner(x, f, 0), face_corner(x, f, 1), face_corner(x, f, 2), t[static_cast<std::size_t>(i)]));
+      s.vertex[static_cast<std::size_t>(i)][static_cast<std::size_t>(f)] = static_cast<std::int8_t>(exact::orient_3d(
+          face_corner(x, f, 0), face_corner(x, f, 1), face_corner(x, f, 2), t[static_cast<std::size_t>(i)]));
   for (int k = 0; k < 4; ++k)
-    s.corner[static_cast<std::size_t>(k)] = static_cast<std::int8_t>(exact::orient_3d(t[0], t[1], t[2], x[static_cast<std::size_t>(k)]));
+    s.corner[static_cast<std::size_t>(k)] =
+        static_cast<std::int8_t>(exact::orient_3d(t[0], t[1], t[2], x[static_cast<std::size_t>(k)]));
   return s;
 }
 
@@ -111,18 +114,21 @@ Answer triangle_meets_tet(const Corners& x, const std::array<Vec, 3>& t, const S
         s.vertex[2][static_cast<std::size_t>(f)] > 0)
       return Answer::no;
   const auto& c = s.corner;
-  if ((c[0] > 0 && c[1] > 0 && c[2] > 0 && c[3] > 0) || (c[0] < 0 && c[1] < 0 && c[2] < 0 && c[3] < 0)) return Answer::no;
+  if ((c[0] > 0 && c[1] > 0 && c[2] > 0 && c[3] > 0) || (c[0] < 0 && c[1] < 0 && c[2] < 0 && c[3] < 0))
+    return Answer::no;
   bool undecided = false;
   for (int k = 0; k < 3; ++k) {
-    const Answer a = segment_meets_tet(x, t[static_cast<std::size_t>(k)], t[static_cast<std::size_t>((k + 1) % 3)],
-                                       s.vertex[static_cast<std::size_t>(k)], s.vertex[static_cast<std::size_t>((k + 1) % 3)]);
+    const Answer a =
+        segment_meets_tet(x, t[static_cast<std::size_t>(k)], t[static_cast<std::size_t>((k + 1) % 3)],
+                          s.vertex[static_cast<std::size_t>(k)], s.vertex[static_cast<std::size_t>((k + 1) % 3)]);
     if (a == Answer::yes) return Answer::yes;
     undecided = undecided || a == Answer::degenerate;
   }
   for (int i = 0; i < 4; ++i)
     for (int j = i + 1; j < 4; ++j) {
-      const Answer a = segment_crosses_triangle(x[static_cast<std::size_t>(i)], x[static_cast<std::size_t>(j)], c[static_cast<std::size_t>(i)],
-                                                c[static_cast<std::size_t>(j)], t[0], t[1], t[2]);
+      const Answer a =
+          segment_crosses_triangle(x[static_cast<std::size_t>(i)], x[static_cast<std::size_t>(j)],
+                                   c[static_cast<std::size_t>(i)], c[static_cast<std::size_t>(j)], t[0], t[1], t[2]);
       if (a == Answer::yes) return Answer::yes;
       undecided = undecided || a == Answer::degenerate;
     }
@@ -147,7 +153,8 @@ struct SmallSets {
     for (int i = 0; i < n; ++i) parent[static_cast<std::size_t>(i)] = i;
   }
   int find(int x) {
-    while (parent[static_cast<std::size_t>(x)] != x) x = parent[static_cast<std::size_t>(x)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
+    while (parent[static_cast<std::size_t>(x)] != x)
+      x = parent[static_cast<std::size_t>(x)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
     return x;
   }
   /// The smaller root wins: a class is named by its first item.
@@ -187,7 +194,8 @@ struct Scratch {
 };
 
 void classify_element(const Corners& x, const std::array<Index, 4>& nodes, const std::array<bool, 4>& inside,
-                      const TriangleMesh& surface, const Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor>& across, const Index* tris,
+                      const TriangleMesh& surface,
+                      const Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor>& across, const Index* tris,
                       const Sides* sides, int m, Scratch& scratch, ElementClasses& out) {
   out.degenerate = false;
   out.intervals.clear();
@@ -230,13 +238,15 @@ void classify_element(const Corners& x, const std::array<Index, 4>& nodes, const
   for (int j = 0; j < 6; ++j) {
     if (out.degenerate) break;
     std::array<int, 2> edge = {kEdges[j][0], kEdges[j][1]};
-    if (nodes[static_cast<std::size_t>(edge[0])] > nodes[static_cast<std::size_t>(edge[1])]) std::swap(edge[0], edge[1]);
+    if (nodes[static_cast<std::size_t>(edge[0])] > nodes[static_cast<std::size_t>(edge[1])])
+      std::swap(edge[0], edge[1]);
     const Vec& p = x[static_cast<std::size_t>(edge[0])];
     const Vec& q = x[static_cast<std::size_t>(edge[1])];
     auto& crossings = scratch.crossings;
     crossings.clear();
     for (int i = 0; i < m; ++i) {
-      const int sp = sides[i].corner[static_cast<std::size_t>(edge[0])], sq = sides[i].corner[static_cast<std::size_t>(edge[1])];
+      const int sp = sides[i].corner[static_cast<std::size_t>(edge[0])],
+                sq = sides[i].corner[static_cast<std::size_t>(edge[1])];
       if (sp != 0 && sp == sq) continue;
       const auto c = triangle_corners(surface, tris[i]);
       const Answer a = segment_crosses_triangle(p, q, sp, sq, c[0], c[1], c[2]);
@@ -247,8 +257,9 @@ void classify_element(const Corners& x, const std::array<Index, 4>& nodes, const
       crossings.push_back({dp / (dp - dq), i});
     }
     if (out.degenerate) break;
-    std::sort(crossings.begin(), crossings.end(),
-              [](const Scratch::Crossing& a, const Scratch::Crossing& b) { return a.s < b.s || (a.s == b.s && a.triangle < b.triangle); });
+    std::sort(crossings.begin(), crossings.end(), [](const Scratch::Crossing& a, const Scratch::Crossing& b) {
+      return a.s < b.s || (a.s == b.s && a.triangle < b.triangle);
+    });
     for (std::size_t r = 1; r < crossings.size(); ++r)
       if (!(crossings[r].s - crossings[r - 1].s > 1e-9)) out.degenerate = true;
     // Inside and outside alternate from the lower corner's exact flag; the
@@ -280,7 +291,8 @@ void classify_element(const Corners& x, const std::array<Index, 4>& nodes, const
     // One part: everything there is.
     const bool any = m > 0 || inside[0] || inside[1] || inside[2] || inside[3];
     if (any) out.class_on_edge.push_back(1);
-    for (int k = 0; k < 4; ++k) out.corner_class[static_cast<std::size_t>(k)] = inside[static_cast<std::size_t>(k)] ? 0 : -1;
+    for (int k = 0; k < 4; ++k)
+      out.corner_class[static_cast<std::size_t>(k)] = inside[static_cast<std::size_t>(k)] ? 0 : -1;
     return;
   }
   // Number the classes that hold a triangle or an inside interval, in
@@ -296,16 +308,19 @@ void classify_element(const Corners& x, const std::array<Index, 4>& nodes, const
     }
     if (item >= m) out.class_on_edge[static_cast<std::size_t>(label[static_cast<std::size_t>(root)])] = 1;
   }
-  for (int i = 0; i < m; ++i) out.triangle_class[static_cast<std::size_t>(i)] = label[static_cast<std::size_t>(sets.find(i))];
+  for (int i = 0; i < m; ++i)
+    out.triangle_class[static_cast<std::size_t>(i)] = label[static_cast<std::size_t>(sets.find(i))];
   for (int j = 0; j < 6; ++j) {
     out.interval_first[static_cast<std::size_t>(j)] = static_cast<int>(out.intervals.size());
     for (int item = item_first[static_cast<std::size_t>(j)]; item < item_first[static_cast<std::size_t>(j + 1)]; ++item)
-      out.intervals.push_back(interval_inside[static_cast<std::size_t>(item - m)] ? label[static_cast<std::size_t>(sets.find(item))] : -1);
+      out.intervals.push_back(
+          interval_inside[static_cast<std::size_t>(item - m)] ? label[static_cast<std::size_t>(sets.find(item))] : -1);
   }
   out.interval_first[6] = static_cast<int>(out.intervals.size());
   for (int k = 0; k < 4; ++k)
     if (corner_item[static_cast<std::size_t>(k)] >= 0)
-      out.corner_class[static_cast<std::size_t>(k)] = label[static_cast<std::size_t>(sets.find(corner_item[static_cast<std::size_t>(k)]))];
+      out.corner_class[static_cast<std::size_t>(k)] =
+          label[static_cast<std::size_t>(sets.find(corner_item[static_cast<std::size_t>(k)]))];
 }
 
 /// Two elements' parts joined across their shared face: the element and
@@ -322,12 +337,14 @@ struct FaceJoin {
 Answer triangle_crosses_face(const std::array<Vec, 3>& t, const std::array<Vec, 3>& f) {
   bool undecided = false;
   for (int k = 0; k < 3; ++k) {
-    const Answer a = segment_crosses_triangle(t[static_cast<std::size_t>(k)], t[static_cast<std::size_t>((k + 1) % 3)], f[0], f[1], f[2]);
+    const Answer a = segment_crosses_triangle(t[static_cast<std::size_t>(k)], t[static_cast<std::size_t>((k + 1) % 3)],
+                                              f[0], f[1], f[2]);
     if (a == Answer::yes) return Answer::yes;
     undecided = undecided || a == Answer::degenerate;
   }
   for (int k = 0; k < 3; ++k) {
-    const Answer a = segment_crosses_triangle(f[static_cast<std::size_t>(k)], f[static_cast<std::size_t>((k + 1) % 3)], t[0], t[1], t[2]);
+    const Answer a = segment_crosses_triangle(f[static_cast<std::size_t>(k)], f[static_cast<std::size_t>((k + 1) % 3)],
+                                              t[0], t[1], t[2]);
     if (a == Answer::yes) return Answer::yes;
     undecided = undecided || a == Answer::degenerate;
   }
@@ -377,8 +394,10 @@ void join_across_face(const LatticeMesh& lm, const TriangleMesh& surface, const 
     for (int j = i + 1; j < 3; ++j) {
       const int a = edge_index(corner0[static_cast<std::size_t>(i)], corner0[static_cast<std::size_t>(j)]);
       const int b = edge_index(corner1[static_cast<std::size_t>(i)], corner1[static_cast<std::size_t>(j)]);
-      const int len0 = c0.interval_first[static_cast<std::size_t>(a + 1)] - c0.interval_first[static_cast<std::size_t>(a)];
-      const int len1 = c1.interval_first[static_cast<std::size_t>(b + 1)] - c1.interval_first[static_cast<std::size_t>(b)];
+      const int len0 =
+          c0.interval_first[static_cast<std::size_t>(a + 1)] - c0.interval_first[static_cast<std::size_t>(a)];
+      const int len1 =
+          c1.interval_first[static_cast<std::size_t>(b + 1)] - c1.interval_first[static_cast<std::size_t>(b)];
       if (len0 != len1) return join_all();
       for (int r = 0; r < len0; ++r) {
         const int p0 = c0.intervals[static_cast<std::size_t>(c0.interval_first[static_cast<std::size_t>(a)] + r)];
@@ -431,7 +450,8 @@ void copy_nodes(const LatticeMesh& lm, const TriangleMesh& surface, const std::v
   for (Index e = 0; e < ne; ++e) {
     if (out.num_parts(e) == 0) continue;
     for (int k = 0; k < 4; ++k) {
-      std::array<Index, 3> n = {mesh.tets(e, kTetFaces[k][0]), mesh.tets(e, kTetFaces[k][1]), mesh.tets(e, kTetFaces[k][2])};
+      std::array<Index, 3> n = {mesh.tets(e, kTetFaces[k][0]), mesh.tets(e, kTetFaces[k][1]),
+                                mesh.tets(e, kTetFaces[k][2])};
       std::sort(n.begin(), n.end());
       sides.push_back({n, e, k});
     }
@@ -441,7 +461,8 @@ void copy_nodes(const LatticeMesh& lm, const TriangleMesh& surface, const std::v
   for (std::size_t i = 0; i + 1 < sides.size(); ++i)
     if (sides[i].nodes == sides[i + 1].nodes)
       joins.push_back({{sides[i].element, sides[i + 1].element}, {sides[i].opposite, sides[i + 1].opposite}, {}});
-  tbb::parallel_for(std::size_t{0}, joins.size(), [&](std::size_t f) { join_across_face(lm, surface, classes, out, joins[f]); });
+  tbb::parallel_for(std::size_t{0}, joins.size(),
+                    [&](std::size_t f) { join_across_face(lm, surface, classes, out, joins[f]); });
   // Copies: one item per part corner, joined at each joined face's nodes.
   const Index np = out.first_part.back();
   UnionFind copies(4 * np);
@@ -533,24 +554,25 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface)
       const auto t = static_cast<Index>(index);
       const auto tri = triangle_corners(surface, t);
       const Vec lo = tri[0].cwiseMin(tri[1]).cwiseMin(tri[2]), hi = tri[0].cwiseMax(tri[1]).cwiseMax(tri[2]);
-      lattice.for_each_tet_shape_near(lo, hi, [&](BccLattice::Key key, const Eigen::Vector3i& cell, int axis, int edge) {
-        const Index e = lm.element(key);
-        if (e < 0) return;
-        const Corners x = lattice.tet_positions(cell, axis, edge);
-        Vec tet_lo = x[0], tet_hi = x[0];
-        for (const auto& p : x) {
-          tet_lo = tet_lo.cwiseMin(p);
-          tet_hi = tet_hi.cwiseMax(p);
-        }
-        if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any()) return;
-        // A face plane of either that separates them by more than the slack
-        // separates them exactly (the round-off of the projections is far
-        // smaller); the other separating axes are left to the exact test.
-        if (!overlaps_inflated(tri, x, slack, false)) return;
-        const Sides sides = sides_of(x, tri);
-        const Answer a = triangle_meets_tet(x, tri, sides);
-        if (a != Answer::no) found.push_back({e, t, a == Answer::degenerate, sides});
-      });
+      lattice.for_each_tet_shape_near(
+          lo, hi, [&](BccLattice::Key key, const Eigen::Vector3i& cell, int axis, int edge) {
+            const Index e = lm.element(key);
+            if (e < 0) return;
+            const Corners x = lattice.tet_positions(cell, axis, edge);
+            Vec tet_lo = x[0], tet_hi = x[0];
+            for (const auto& p : x) {
+              tet_lo = tet_lo.cwiseMin(p);
+              tet_hi = tet_hi.cwiseMax(p);
+            }
+            if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any()) return;
+            // A face plane of either that separates them by more than the slack
+            // separates them exactly (the round-off of the projections is far
+            // smaller); the other separating axes are left to the exact test.
+            if (!overlaps_inflated(tri, x, slack, false)) return;
+            const Sides sides = sides_of(x, tri);
+            const Answer a = triangle_meets_tet(x, tri, sides);
+            if (a != Answer::no) found.push_back({e, t, a == Answer::degenerate, sides});
+          });
     }
   });
   MaterialParts out;
@@ -592,14 +614,15 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface)
       const Index begin = out.pair_first[at(e)];
       const int m = static_cast<int>(out.pair_first[at(e) + 1] - begin);
       ElementClasses& c = classes[at(e)];
-      classify_element(x, nodes, inside, surface, across, out.pair_triangle.data() + begin, pair_sides.data() + begin, m,
-                       scratch, c);
+      classify_element(x, nodes, inside, surface, across, out.pair_triangle.data() + begin, pair_sides.data() + begin,
+                       m, scratch, c);
       if (out.degenerate[at(e)] && !c.degenerate) {
         c.degenerate = true;
         const bool any = m > 0 || inside[0] || inside[1] || inside[2] || inside[3];
         c.class_on_edge.assign(any ? 1 : 0, 1);
         c.triangle_class.assign(static_cast<std::size_t>(m), 0);
-        for (int k = 0; k < 4; ++k) c.corner_class[static_cast<std::size_t>(k)] = inside[static_cast<std::size_t>(k)] ? 0 : -1;
+        for (int k = 0; k < 4; ++k)
+          c.corner_class[static_cast<std::size_t>(k)] = inside[static_cast<std::size_t>(k)] ? 0 : -1;
       }
       out.degenerate[at(e)] = c.degenerate ? 1 : 0;
       if (c.degenerate) {
@@ -609,7 +632,8 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface)
           for (int i = 0; i < m; ++i) {
             const auto t = triangle_corners(surface, out.pair_triangle[at(begin + i)]);
             const Vec n = (t[1] - t[0]).cross(t[2] - t[0]);
-            if (n.squaredNorm() > 0.0) nearest = std::min(nearest, std::abs(n.normalized().dot(x[static_cast<std::size_t>(k)] - t[0])));
+            if (n.squaredNorm() > 0.0)
+              nearest = std::min(nearest, std::abs(n.normalized().dot(x[static_cast<std::size_t>(k)] - t[0])));
           }
           if (nearest > farthest) {
             farthest = nearest;
@@ -625,44 +649,46 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface)
   // triangles sliced along the lattice's planes; pieces of round-off size
   // in an element the exact test did not find are dropped.
   std::vector<ConeIntegrals> pair_integrals(out.pair_triangle.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, num_triangles, 64), [&](const tbb::blocked_range<std::size_t>& r) {
-    LatticeSlicer slicer;
-    std::vector<PolygonPart> parts;
-    for (std::size_t index = r.begin(); index != r.end(); ++index) {
-      const auto t = static_cast<Index>(index);
-      Polygon triangle;
-      for (int k = 0; k < 3; ++k) triangle.push(surface.vertices.row(surface.triangles(t, k)).transpose());
-      if ((triangle.v[1] - triangle.v[0]).cross(triangle.v[2] - triangle.v[0]).squaredNorm() == 0.0) continue;
-      slicer.polygon_parts(lattice, triangle, 1e-12, parts);
-      for (const PolygonPart& part : parts) {
-        const Index e = lm.element(part.key);
-        if (e < 0) continue;
-        const auto first = out.pair_triangle.begin() + out.pair_first[at(e)];
-        const auto last = out.pair_triangle.begin() + out.pair_first[at(e) + 1];
-        const auto it = std::lower_bound(first, last, t);
-        if (it == last || *it != t) continue;
-        const Corners x = element_corners(mesh, e);
-        const int k = apex[at(e)];
-        const Vec& p = x[static_cast<std::size_t>(k)];
-        const auto& face = kTetFaces[k];
-        const Vec& a = x[static_cast<std::size_t>(face[0])];
-        const Vec normal = (x[static_cast<std::size_t>(face[1])] - a).cross(x[static_cast<std::size_t>(face[2])] - a).normalized();
-        const double height = normal.dot(a - p);
-        ConeIntegrals integrals;
-        integrals.add_cone(p, part.polygon);
-        Polygon shadow = part.polygon;
-        for (int i = 0; i < shadow.size; ++i) {
-          const Vec y = part.polygon.v[static_cast<std::size_t>(i)] - p;
-          const double along = y.dot(normal);
-          shadow.v[static_cast<std::size_t>(i)] = along > 1e-300 ? Vec(p + y * (height / along)) : p;
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, num_triangles, 64), [&](const tbb::blocked_range<std::size_t>& r) {
+        LatticeSlicer slicer;
+        std::vector<PolygonPart> parts;
+        for (std::size_t index = r.begin(); index != r.end(); ++index) {
+          const auto t = static_cast<Index>(index);
+          Polygon triangle;
+          for (int k = 0; k < 3; ++k) triangle.push(surface.vertices.row(surface.triangles(t, k)).transpose());
+          if ((triangle.v[1] - triangle.v[0]).cross(triangle.v[2] - triangle.v[0]).squaredNorm() == 0.0) continue;
+          slicer.polygon_parts(lattice, triangle, 1e-12, parts);
+          for (const PolygonPart& part : parts) {
+            const Index e = lm.element(part.key);
+            if (e < 0) continue;
+            const auto first = out.pair_triangle.begin() + out.pair_first[at(e)];
+            const auto last = out.pair_triangle.begin() + out.pair_first[at(e) + 1];
+            const auto it = std::lower_bound(first, last, t);
+            if (it == last || *it != t) continue;
+            const Corners x = element_corners(mesh, e);
+            const int k = apex[at(e)];
+            const Vec& p = x[static_cast<std::size_t>(k)];
+            const auto& face = kTetFaces[k];
+            const Vec& a = x[static_cast<std::size_t>(face[0])];
+            const Vec normal =
+                (x[static_cast<std::size_t>(face[1])] - a).cross(x[static_cast<std::size_t>(face[2])] - a).normalized();
+            const double height = normal.dot(a - p);
+            ConeIntegrals integrals;
+            integrals.add_cone(p, part.polygon);
+            Polygon shadow = part.polygon;
+            for (int i = 0; i < shadow.size; ++i) {
+              const Vec y = part.polygon.v[static_cast<std::size_t>(i)] - p;
+              const double along = y.dot(normal);
+              shadow.v[static_cast<std::size_t>(i)] = along > 1e-300 ? Vec(p + y * (height / along)) : p;
+            }
+            integrals.add_cone(p, shadow, -1.0);
+            ConeIntegrals& sum = pair_integrals[static_cast<std::size_t>(it - out.pair_triangle.begin())];
+            sum.volume += integrals.volume;
+            sum.moment += integrals.moment;
+          }
         }
-        integrals.add_cone(p, shadow, -1.0);
-        ConeIntegrals& sum = pair_integrals[static_cast<std::size_t>(it - out.pair_triangle.begin())];
-        sum.volume += integrals.volume;
-        sum.moment += integrals.moment;
-      }
-    }
-  });
+      });
 
   // 4. Candidate volumes; an element with a patch of its own that encloses
   // air (a hole through its material) keeps one part.
@@ -687,7 +713,8 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface)
       }
       bool hole = false;
       for (int k = 0; k < c.count(); ++k)
-        hole = hole || (!c.class_on_edge[static_cast<std::size_t>(k)] && !(v[static_cast<std::size_t>(k)].volume > 0.0));
+        hole =
+            hole || (!c.class_on_edge[static_cast<std::size_t>(k)] && !(v[static_cast<std::size_t>(k)].volume > 0.0));
       if (hole) {
         ConeIntegrals total;
         for (const auto& part : v) {
@@ -718,15 +745,17 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface)
       for (int k = 0; k < c.count(); ++k) {
         const ConeIntegrals& part = volumes[at(e)][static_cast<std::size_t>(k)];
         out.part_volume[base + k] = part.volume;
-        out.part_centroid.row(base + k) = part.volume > 0.0 ? Vec(x[apex[at(e)]] + part.moment / part.volume).transpose()
-                                                            : Vec(0.25 * (x[0] + x[1] + x[2] + x[3])).transpose();
+        out.part_centroid.row(base + k) = part.volume > 0.0
+                                              ? Vec(x[apex[at(e)]] + part.moment / part.volume).transpose()
+                                              : Vec(0.25 * (x[0] + x[1] + x[2] + x[3])).transpose();
       }
       for (int k = 0; k < 4; ++k) {
         const int cls = c.corner_class[static_cast<std::size_t>(k)];
         out.corner_part[at(e)][static_cast<std::size_t>(k)] = cls >= 0 ? base + cls : -1;
       }
       const Index begin = out.pair_first[at(e)];
-      for (std::size_t i = 0; i < c.triangle_class.size(); ++i) out.pair_part[at(begin) + i] = base + c.triangle_class[i];
+      for (std::size_t i = 0; i < c.triangle_class.size(); ++i)
+        out.pair_part[at(begin) + i] = base + c.triangle_class[i];
     }
   });
 
@@ -760,7 +789,8 @@ SeparatedMesh separate_parts(const LatticeMesh& lm, const MaterialParts& parts) 
     if (parts.num_parts(e) > 0) {
       for (Index p = parts.first_part[at(e)]; p < parts.first_part[at(e) + 1]; ++p) {
         std::array<Index, 4> t{};
-        for (int k = 0; k < 4; ++k) t[static_cast<std::size_t>(k)] = renumbered[at(parts.part_nodes[at(p)][static_cast<std::size_t>(k)])];
+        for (int k = 0; k < 4; ++k)
+          t[static_cast<std::size_t>(k)] = renumbered[at(parts.part_nodes[at(p)][static_cast<std::size_t>(k)])];
         tets.push_back(t);
         out.element.push_back(e);
         out.part.push_back(p);
@@ -785,9 +815,11 @@ SeparatedMesh separate_parts(const LatticeMesh& lm, const MaterialParts& parts) 
     c.tet_keys[i] = lm.tet_keys[at(out.element[i])];
   }
   c.element_of_key.assign(lm.element_of_key.size(), -1);
-  for (std::size_t i = tets.size(); i-- > 0;) c.element_of_key[static_cast<std::size_t>(c.tet_keys[i])] = static_cast<Index>(i);
+  for (std::size_t i = tets.size(); i-- > 0;)
+    c.element_of_key[static_cast<std::size_t>(c.tet_keys[i])] = static_cast<Index>(i);
   c.node_of_key.assign(lm.node_of_key.size(), -1);
-  for (std::size_t i = out.node.size(); i-- > 0;) c.node_of_key[static_cast<std::size_t>(c.node_keys[i])] = static_cast<Index>(i);
+  for (std::size_t i = out.node.size(); i-- > 0;)
+    c.node_of_key[static_cast<std::size_t>(c.node_keys[i])] = static_cast<Index>(i);
   return out;
 }
 
@@ -819,7 +851,8 @@ std::vector<Index> vertex_copies(const LatticeMesh& lm, const SeparatedMesh& sep
   tbb::parallel_for(tbb::blocked_range<Index>(0, nv, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
     for (Index v = r.begin(); v != r.end(); ++v) {
       const Index e = vertex_element[at(v)];
-      for (Index i = first[at(v)]; i < first[at(v) + 1] && out[at(v)] < 0 && e >= 0; ++i) out[at(v)] = copy_of(e, triangles[at(i)]);
+      for (Index i = first[at(v)]; i < first[at(v) + 1] && out[at(v)] < 0 && e >= 0; ++i)
+        out[at(v)] = copy_of(e, triangles[at(i)]);
       if (out[at(v)] >= 0) continue;
       // The element containing the vertex best among those its triangles
       // have pieces in (the lowest copy on a tie).

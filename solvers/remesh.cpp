@@ -11,11 +11,11 @@
 #include "core/parallel.h"
 #include "core/plasticity.h"
 #include "core/surface_geometry.h"
-#include "solvers/stepping.h"
 #include "meshing/exact_mass.h"
 #include "meshing/material_parts.h"
 #include "meshing/remesh_trigger.h"
 #include "meshing/transfer.h"
+#include "solvers/stepping.h"
 
 namespace goo {
 namespace {
@@ -68,7 +68,6 @@ Totals totals(const Eigen::VectorXd& m, const Points& x, const Points& v) {
 Eigen::VectorXd solid_fractions(const ElementSolid& solid, const Eigen::VectorXd& rest_volumes) {
   return (solid.volume.array() / rest_volumes.array()).max(0.0).min(1.0).matrix();
 }
-
 
 /// The body moved onto the lattice mesh's virtual-node copies where its
 /// material is split (docs/lattice.md, "Material parts"): node state
@@ -124,7 +123,8 @@ Index separate_parts(const LatticeMesh& lm, const TriangleMesh& surface, const E
     }
   }
   out.solid_fractions = solid_fractions(copy_solid, out.rest_volumes);
-  out.masses = exact_node_masses(copies, copy_solid, body.material.density, det_Fe.empty() ? std::span<const double>{} : std::span<const double>(copy_det_Fe),
+  out.masses = exact_node_masses(copies, copy_solid, body.material.density,
+                                 det_Fe.empty() ? std::span<const double>{} : std::span<const double>(copy_det_Fe),
                                  body.material.min_mass_fraction);
   // The copies of one node share its mass more evenly: each gets at least
   // an equal share, the group rescaled to its sum (so total mass and centre
@@ -160,7 +160,8 @@ Index separate_parts(const LatticeMesh& lm, const TriangleMesh& surface, const E
     if (c < 0) throw Error(fmt::format("re-mesh: surface vertex {} lies in no copy of an element", v));
     out.embedding.parent[at(v)] = c;
     if (separated.element[at(c)] != plain.parent[at(v)])
-      out.embedding.bary.row(v) = lm.lattice.barycentric(copies.tet_keys[at(c)], surface.vertices.row(v).transpose()).transpose();
+      out.embedding.bary.row(v) =
+          lm.lattice.barycentric(copies.tet_keys[at(c)], surface.vertices.row(v).transpose()).transpose();
   }
   body = std::move(out);
   return parts.split_elements();
@@ -183,7 +184,6 @@ MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, doub
 }
 
 namespace {
-
 
 /// The old body's velocities (interpolated in its deformed elements), its
 /// elastic state (Fe = F Fp⁻¹ averaged as left stretches, scaled so that the

@@ -247,8 +247,8 @@ TEST(Scene, SelfCollisionsAreOnUnlessSwitchedOff) {
 TEST(Scene, SeparatingTheMaterialsPartsIsOffUnlessSwitchedOn) {
   EXPECT_FALSE(parse(with_object(kCube)).remesh.separate_parts);
   EXPECT_TRUE(parse(with_object(kCube, R"("remesh": {"separate_parts": true},)")).remesh.separate_parts);
-  EXPECT_TRUE(test::throws_error_containing(
-      [&] { parse(with_object(kCube, R"("remesh": {"separate_parts": 1},)")); }, "/remesh/separate_parts must be"));
+  EXPECT_TRUE(test::throws_error_containing([&] { parse(with_object(kCube, R"("remesh": {"separate_parts": 1},)")); },
+                                            "/remesh/separate_parts must be"));
 }
 
 TEST(Scene, BodiesCollideWithEachOtherUnlessSwitchedOff) {

@@ -32,7 +32,8 @@ Eigen::Matrix3d tilt(double angle) {
 ElementSolid piece_solid(const LatticeMesh& lm, const TriangleMesh& piece) {
   LatticeMesh alone = lm;
   const std::vector<std::uint8_t> inside = voxelize(lm.lattice, piece);
-  for (std::size_t n = 0; n < alone.node_keys.size(); ++n) alone.node_inside[n] = inside[static_cast<std::size_t>(alone.node_keys[n])];
+  for (std::size_t n = 0; n < alone.node_keys.size(); ++n)
+    alone.node_inside[n] = inside[static_cast<std::size_t>(alone.node_keys[n])];
   return clip_solid_to_elements(alone, piece);
 }
 
@@ -80,7 +81,8 @@ void expect_parts_are_the_convex_pieces(const std::vector<TriangleMesh>& pieces,
       const Eigen::Vector3d corner = lm.mesh.positions.row(lm.mesh.tets(e, 0)).transpose();
       const Eigen::Vector3d mine = found[i].first * (parts.part_centroid.row(found[i].second).transpose() - corner);
       const Eigen::Vector3d theirs =
-          expected[i].first * (solids[static_cast<std::size_t>(expected[i].second)].centroid.row(e).transpose() - corner);
+          expected[i].first *
+          (solids[static_cast<std::size_t>(expected[i].second)].centroid.row(e).transpose() - corner);
       EXPECT_LT((mine - theirs).norm(), 1e-10 * tet * h) << "element " << e;
     }
     several += found.size() >= 2 ? 1 : 0;
@@ -100,7 +102,8 @@ void expect_parts_are_the_convex_pieces(const std::vector<TriangleMesh>& pieces,
       const int piece = piece_of_part[at(p)];
       if (piece < 0) continue;
       if (piece_of_copy[at(c)] < 0) piece_of_copy[at(c)] = piece;
-      EXPECT_EQ(piece_of_copy[at(c)], piece) << "copy " << c << " of node " << parts.copy_node[at(c)] << " glues two pieces";
+      EXPECT_EQ(piece_of_copy[at(c)], piece)
+          << "copy " << c << " of node " << parts.copy_node[at(c)] << " glues two pieces";
     }
   for (std::size_t i = 0; i < pieces.size(); ++i) {
     Index root = -1;
@@ -113,7 +116,8 @@ void expect_parts_are_the_convex_pieces(const std::vector<TriangleMesh>& pieces,
   // Each node copy sits at a node of the element of every part using it.
   for (Index e = 0; e < parts.num_elements(); ++e)
     for (Index p = parts.first_part[at(e)]; p < parts.first_part[at(e) + 1]; ++p)
-      for (int k = 0; k < 4; ++k) EXPECT_EQ(parts.copy_node[at(parts.part_nodes[at(p)][static_cast<std::size_t>(k)])], lm.mesh.tets(e, k));
+      for (int k = 0; k < 4; ++k)
+        EXPECT_EQ(parts.copy_node[at(parts.part_nodes[at(p)][static_cast<std::size_t>(k)])], lm.mesh.tets(e, k));
   if (several > 0) {
     EXPECT_GT(parts.duplicated_nodes(), 0);
   }
@@ -125,7 +129,8 @@ TEST(MaterialParts, TwoBoxesAcrossAGapAreTwoPartsWhereTheyShareElements) {
   const double h = 0.2;
   const Eigen::Matrix3d R = tilt(0.3);
   const TriangleMesh a = moved(make_box({1.0, 0.8, 0.6}, 3), R, {0.013, -0.021, 0.007});
-  const TriangleMesh b = moved(make_box({1.0, 0.8, 0.6}, 3), R, R * Eigen::Vector3d(1.0 + h / 3.0, 0.0, 0.0) + Eigen::Vector3d(0.013, -0.021, 0.007));
+  const TriangleMesh b = moved(make_box({1.0, 0.8, 0.6}, 3), R,
+                               R * Eigen::Vector3d(1.0 + h / 3.0, 0.0, 0.0) + Eigen::Vector3d(0.013, -0.021, 0.007));
   Index split = 0;
   expect_parts_are_the_convex_pieces({a, b}, h, &split);
   EXPECT_GT(split, 20);  // the gap's face is 0.8 × 0.6 = 12 h²
@@ -138,7 +143,8 @@ TEST(MaterialParts, TwoThinStrandsSideBySideAreTwoParts) {
   const double h = 0.2;
   const Eigen::Matrix3d R = tilt(0.7);
   const TriangleMesh a = moved(make_box({1.5, 0.002, 0.002}, 2), R, {0.011, 0.017, -0.013});
-  const TriangleMesh b = moved(make_box({1.5, 0.002, 0.002}, 2), R, R * Eigen::Vector3d(0.0, h / 3.0, 0.0) + Eigen::Vector3d(0.011, 0.017, -0.013));
+  const TriangleMesh b = moved(make_box({1.5, 0.002, 0.002}, 2), R,
+                               R * Eigen::Vector3d(0.0, h / 3.0, 0.0) + Eigen::Vector3d(0.011, 0.017, -0.013));
   Index split = 0;
   expect_parts_are_the_convex_pieces({a, b}, h, &split);
   EXPECT_GT(split, 5);
@@ -149,8 +155,8 @@ TEST(MaterialParts, TwoThinStrandsSideBySideAreTwoParts) {
 TEST(MaterialParts, AConvexSolidIsOnePartEverywhere) {
   const Eigen::Matrix3d R = tilt(0.3);
   for (const auto& [surface, h] : {std::pair{moved(make_box({1.0, 0.8, 0.6}, 3), R, {0.013, -0.021, 0.007}), 0.2},
-                                    std::pair{moved(make_box({1.0, 0.8, 0.002}, 3), R, {0.013, -0.021, 0.007}), 0.2},
-                                    std::pair{moved(make_sphere(1.0, 24), R, {0.013, -0.021, 0.007}), 0.2}}) {
+                                   std::pair{moved(make_box({1.0, 0.8, 0.002}, 3), R, {0.013, -0.021, 0.007}), 0.2},
+                                   std::pair{moved(make_sphere(1.0, 24), R, {0.013, -0.021, 0.007}), 0.2}}) {
     Index split = -1;
     expect_parts_are_the_convex_pieces({surface}, h, &split);
     EXPECT_EQ(split, 0);
@@ -175,7 +181,8 @@ TEST(MaterialParts, PartsTileEachElementsSolid) {
       ASSERT_NEAR(std::max(sum, 0.0), solid.volume[e], 1e-9 * tet) << "element " << e;
       // Corners inside the surface lie in a part; outside ones in none.
       for (int k = 0; k < 4; ++k)
-        EXPECT_EQ(parts.corner_part[at(e)][static_cast<std::size_t>(k)] >= 0, lm.node_inside[at(lm.mesh.tets(e, k))] != 0);
+        EXPECT_EQ(parts.corner_part[at(e)][static_cast<std::size_t>(k)] >= 0,
+                  lm.node_inside[at(lm.mesh.tets(e, k))] != 0);
     }
     if (c.name == "sphere" || c.name == "thin_sheet") {
       EXPECT_EQ(parts.split_elements(), 0);
@@ -205,7 +212,8 @@ TEST(MaterialParts, ABubbleIsPartOfTheMaterialAroundIt) {
     if (parts.num_parts(e) != 1) continue;
     EXPECT_NEAR(parts.part_volume[parts.first_part[at(e)]], solid.volume[e], 1e-9 * lm.lattice.tet_volume());
     holed += solid.volume[e] < lm.lattice.tet_volume() * (1.0 - 1e-6) && parts.corner_part[at(e)][0] >= 0 &&
-                     parts.corner_part[at(e)][1] >= 0 && parts.corner_part[at(e)][2] >= 0 && parts.corner_part[at(e)][3] >= 0
+                     parts.corner_part[at(e)][1] >= 0 && parts.corner_part[at(e)][2] >= 0 &&
+                     parts.corner_part[at(e)][3] >= 0
                  ? 1
                  : 0;
   }

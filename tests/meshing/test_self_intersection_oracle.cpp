@@ -57,7 +57,8 @@ TEST(SelfIntersectionOracle, OrientationAgreesWithCgal) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   auto point = [&] { return Eigen::Vector3d(u(rng), u(rng), u(rng)); };
-  auto cgal = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, const Eigen::Vector3d& d) {
+  auto cgal = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                 const Eigen::Vector3d& d) {
     auto p = [](const Eigen::Vector3d& x) { return Kernel::Point_3(x.x(), x.y(), x.z()); };
     return static_cast<int>(CGAL::orientation(p(a), p(b), p(c), p(d)));
   };
@@ -69,7 +70,8 @@ TEST(SelfIntersectionOracle, OrientationAgreesWithCgal) {
     Eigen::Vector3d d = i % 3 == 0 ? point() : Eigen::Vector3d(a + 0.5 * (b - a) + 0.25 * (c - a));
     if (i % 3 == 2) d.x() = std::nextafter(d.x(), 2.0);
     const Eigen::Vector3d shift = 1e3 * point();  // large offsets: cancellation in the differences
-    const int want = cgal(a + shift, b + shift, c + shift, d + shift), got = exact::orient_3d(a + shift, b + shift, c + shift, d + shift);
+    const int want = cgal(a + shift, b + shift, c + shift, d + shift),
+              got = exact::orient_3d(a + shift, b + shift, c + shift, d + shift);
     ASSERT_EQ(got, want) << i;
     ASSERT_EQ(exact::orient_3d(a, b, c, d), cgal(a, b, c, d)) << i;
     zeros += cgal(a, b, c, d) == 0 ? 1 : 0;

@@ -8,8 +8,8 @@
 #include "core/elastic_forces.h"
 #include "core/primitives.h"
 #include "core/surface_geometry.h"
-#include "meshing/surface_intersections.h"
 #include "io/scene_io.h"
+#include "meshing/surface_intersections.h"
 #include "solvers/simulation.h"
 #include "tests/common/test_common.h"
 
@@ -177,17 +177,19 @@ TEST(HardCases, StackedCubesOfOneBodyStayApartOnlyWhenGlued) {
   const TriangleMesh stack = test::joined(lower, upper);
   const Index half = lower.num_vertices();
   auto final_gap = [&](bool separate) {
-    Scene scene = scene_from(fmt::format(R"({{"ground": {{"height": 0.0, "friction": 0.5}}, "remesh": {{"separate_parts": {}}},
+    Scene scene =
+        scene_from(fmt::format(R"({{"ground": {{"height": 0.0, "friction": 0.5}}, "remesh": {{"separate_parts": {}}},
         "objects": [{{"primitive": {{"type": "box", "size": [0.1, 0.1, 0.1], "subdivisions": 4}},
                      "material": {{"density": 1000, "youngs_modulus": 1e5, "poisson_ratio": 0.3, "viscosity": 2}},
                      "lattice_spacing": {}}}]}})",
-                                         separate, h));
+                               separate, h));
     scene.objects[0].surface = stack;
     Simulation sim(scene);
     const SimulationTotals start = sim.totals();
     sim.advance_to(0.25);
     const TriangleMesh surface = sim.bodies()[0].body.surface();
-    const double lower_z = surface.vertices.col(2).head(half).mean(), upper_z = surface.vertices.col(2).tail(half).mean();
+    const double lower_z = surface.vertices.col(2).head(half).mean(),
+                 upper_z = surface.vertices.col(2).tail(half).mean();
     EXPECT_EQ(measure_surface_quality(surface).self_intersecting_pairs, 0);
     expect_kept(sim, start);
     return upper_z - lower_z - 0.1;  // the gap between the centres' heights, less the cubes' size

@@ -130,7 +130,8 @@ TriangleMesh boxes_across_a_gap(double h) {
   const Eigen::Matrix3d R = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1.0, 2.0, 0.5).normalized()).toRotationMatrix();
   TriangleMesh a = make_box({0.5, 0.4, 0.3}, 3), b = a;
   a.vertices = (a.vertices * R.transpose()).rowwise() + Eigen::RowVector3d(0.013, -0.021, 0.007);
-  b.vertices = (b.vertices * R.transpose()).rowwise() + (R * Eigen::Vector3d(0.5 + h / 3.0, 0.0, 0.0) + Eigen::Vector3d(0.013, -0.021, 0.007)).transpose();
+  b.vertices = (b.vertices * R.transpose()).rowwise() +
+               (R * Eigen::Vector3d(0.5 + h / 3.0, 0.0, 0.0) + Eigen::Vector3d(0.013, -0.021, 0.007)).transpose();
   return test::joined(a, b);
 }
 
@@ -172,7 +173,8 @@ TEST(Remesh, SeparatedPartsShareNoNodeAndConserveMass) {
   EXPECT_TRUE(test::matrices_near(separated.surface().vertices, surface.vertices, 1e-14 * size));
   const double M = material.density * surface_integrals(surface).volume;
   EXPECT_NEAR(separated.body.masses.sum(), M, 1e-10 * M);
-  EXPECT_NEAR(separated.body.rest_material_volume, plain.body.rest_material_volume, 1e-12 * plain.body.rest_material_volume);
+  EXPECT_NEAR(separated.body.rest_material_volume, plain.body.rest_material_volume,
+              1e-12 * plain.body.rest_material_volume);
   // Moved by a uniform stretch and rotation, with an affine velocity.
   MeshedBody old = separated;
   const Eigen::Matrix3d A = stretch_and_rotation();
