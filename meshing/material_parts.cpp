@@ -814,12 +814,6 @@ SeparatedMesh separate_parts(const LatticeMesh& lm, const MaterialParts& parts) 
     for (int k = 0; k < 4; ++k) c.mesh.tets(static_cast<Eigen::Index>(i), k) = tets[i][static_cast<std::size_t>(k)];
     c.tet_keys[i] = lm.tet_keys[at(out.element[i])];
   }
-  c.element_of_key.assign(lm.element_of_key.size(), -1);
-  for (std::size_t i = tets.size(); i-- > 0;)
-    c.element_of_key[static_cast<std::size_t>(c.tet_keys[i])] = static_cast<Index>(i);
-  c.node_of_key.assign(lm.node_of_key.size(), -1);
-  for (std::size_t i = out.node.size(); i-- > 0;)
-    c.node_of_key[static_cast<std::size_t>(c.node_keys[i])] = static_cast<Index>(i);
   return out;
 }
 

@@ -89,8 +89,10 @@ MaterialParts material_parts(const LatticeMesh& lattice_mesh, const TriangleMesh
 /// different parts they would join them; so are nodes of no other element.
 struct SeparatedMesh {
   /// The copies: mesh over node copies at their nodes' positions;
-  /// tet_keys and node_keys per copy (repeated), node_inside per node copy;
-  /// element_of_key and node_of_key give a key's first copy.
+  /// tet_keys and node_keys per copy (repeated), node_inside per node copy.
+  /// element_of_key and node_of_key are left empty (a key may have several
+  /// copies): element(key) and node(key) answer −1; first_copy and the
+  /// lattice mesh's own maps lead from a key to its copies.
   LatticeMesh copies;
   std::vector<Index> element;  ///< #copies: the lattice mesh element each copies
   std::vector<Index> part;     ///< #copies: the part it holds

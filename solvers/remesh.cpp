@@ -74,8 +74,9 @@ Eigen::VectorXd solid_fractions(const ElementSolid& solid, const Eigen::VectorXd
 /// (positions, velocities) to every copy of a node, element state (rest
 /// shape, Fp, α) to every copy of an element, each copy's solid its part's,
 /// masses from those, the surface vertices to the copies of their parts.
-/// Nothing changes where no element is split and no node copied. Returns
-/// the number of elements with two or more parts.
+/// body.embedding is the surface embedded in lm. Nothing changes where no
+/// element is split and no node copied. Returns the number of elements
+/// with two or more parts.
 Index separate_parts(const LatticeMesh& lm, const TriangleMesh& surface, const ElementSolid& solid,
                      std::span<const double> det_Fe, Body& body, SeparationReport* report) {
   const MaterialParts parts = material_parts(lm, surface);
@@ -150,8 +151,9 @@ Index separate_parts(const LatticeMesh& lm, const TriangleMesh& surface, const E
   out.rest_material_volume = body.rest_material_volume;
   out.incidence = NodeIncidence::build(out.tets, nn);
   out.surface_triangles = body.surface_triangles;
-  // The surface onto the copies of its parts.
-  const Embedding plain = embed(lm, surface.vertices);
+  // The surface onto the copies of its parts (from the plain lattice mesh's
+  // embedding, which the body carries in).
+  const Embedding& plain = body.embedding;
   const std::vector<Index> copy_of_vertex = vertex_copies(lm, separated, parts, surface, plain.parent);
   out.embedding.parent.resize(plain.parent.size());
   out.embedding.bary = plain.bary;

@@ -240,6 +240,12 @@ TEST(MaterialParts, SameOnOneAndTwoThreads) {
   EXPECT_EQ(one.degenerate, two.degenerate);
   ASSERT_EQ(one.part_volume.size(), two.part_volume.size());
   for (Index p = 0; p < one.part_volume.size(); ++p) EXPECT_EQ(one.part_volume[p], two.part_volume[p]);
+  ASSERT_EQ(one.part_centroid.rows(), two.part_centroid.rows());
+  EXPECT_TRUE((one.part_centroid.array() == two.part_centroid.array()).all());
+  // The copies: the face joins run in parallel, their union in face order.
+  EXPECT_GT(one.duplicated_nodes(), 0);
+  EXPECT_EQ(one.part_nodes, two.part_nodes);
+  EXPECT_EQ(one.copy_node, two.copy_node);
 }
 
 }  // namespace
