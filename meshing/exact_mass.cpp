@@ -23,6 +23,14 @@ std::array<Eigen::Vector3d, 4> element_positions(const TetMesh& mesh, Index e) {
           mesh.positions.row(mesh.tets(e, 2)).transpose(), mesh.positions.row(mesh.tets(e, 3)).transpose()};
 }
 
+/// A surface part's integrals in its element.
+struct PartIntegrals {
+  Index element, triangle;
+  ConeIntegrals integrals;
+};
+
+}  // namespace
+
 /// For each node, the least distance to the plane of a surface triangle
 /// whose bounding box holds the node: 0 where the surface passes through it.
 /// A minimum does not depend on the order it is taken in: the same for any
@@ -70,13 +78,6 @@ std::vector<std::uint8_t> element_apexes(const TetMesh& mesh, const std::vector<
   return out;
 }
 
-/// A surface part's share of its element's integrals: its cone from the
-/// apex p minus the cone over its shadow on the face opposite p.
-struct PartIntegrals {
-  Index element;
-  ConeIntegrals integrals;
-};
-
 ConeIntegrals part_integrals(const std::array<Eigen::Vector3d, 4>& x, int apex, const Polygon& piece) {
   const Eigen::Vector3d& p = x[static_cast<std::size_t>(apex)];
   // tet_planes(x)[apex], alone.
@@ -99,17 +100,16 @@ ConeIntegrals part_integrals(const std::array<Eigen::Vector3d, 4>& x, int apex, 
   return integrals;
 }
 
-}  // namespace
-
-ElementSolid clip_solid_to_elements(const LatticeMesh& lm, const TriangleMesh& surface) {
+SurfacePieces slice_surface(const LatticeMesh& lm, const TriangleMesh& surface) {
   const TetMesh& mesh = lm.mesh;
   const Index ne = mesh.num_elements();
   if (static_cast<Index>(lm.node_inside.size()) != mesh.num_nodes())
     throw Error("clip_solid_to_elements: the lattice mesh has no inside flags for its nodes");
-  const std::vector<std::uint8_t> apex = element_apexes(mesh, node_surface_distances(lm, surface));
+  SurfacePieces out;
+  out.apex = element_apexes(mesh, node_surface_distances(lm, surface));
   // Each triangle sliced along the lattice's planes (lattice_slicing.h) into
   // its parts in each element, and each part's integrals taken at once, per
-  // chunk of triangles in parallel; then summed per element in triangle order.
+  // chunk of triangles in parallel; then counted into per-element lists.
   constexpr std::size_t kChunk = 256;
   const auto num_triangles = static_cast<std::size_t>(surface.num_triangles());
   std::vector<std::vector<PartIntegrals>> chunks((num_triangles + kChunk - 1) / kChunk);
@@ -129,25 +129,35 @@ ElementSolid clip_solid_to_elements(const LatticeMesh& lm, const TriangleMesh& s
       // inside node or a triangle reaches); a part of round-off size may not.
       for (const PolygonPart& part : parts)
         if (const Index e = lm.element(part.key); e >= 0)
-          found.push_back({e, part_integrals(element_positions(mesh, e), apex[at(e)], part.polygon)});
+          found.push_back({e, t, part_integrals(element_positions(mesh, e), out.apex[at(e)], part.polygon)});
     }
   });
   // Counting sort by element; chunks in order keep triangles increasing.
-  std::vector<Index> offsets(at(ne) + 1, 0);
+  out.first.assign(at(ne) + 1, 0);
   for (const auto& chunk : chunks)
-    for (const PartIntegrals& part : chunk) ++offsets[at(part.element) + 1];
-  for (std::size_t e = 0; e + 1 < offsets.size(); ++e) offsets[e + 1] += offsets[e];
-  std::vector<const ConeIntegrals*> sorted(at(offsets.back()));
-  std::vector<Index> fill(offsets.begin(), offsets.end() - 1);
+    for (const PartIntegrals& part : chunk) ++out.first[at(part.element) + 1];
+  for (std::size_t e = 0; e + 1 < out.first.size(); ++e) out.first[e + 1] += out.first[e];
+  out.triangle.resize(at(out.first.back()));
+  out.integrals.resize(out.triangle.size());
+  std::vector<Index> fill(out.first.begin(), out.first.end() - 1);
   for (const auto& chunk : chunks)
-    for (const PartIntegrals& part : chunk) sorted[at(fill[at(part.element)]++)] = &part.integrals;
+    for (const PartIntegrals& part : chunk) {
+      out.triangle[at(fill[at(part.element)])] = part.triangle;
+      out.integrals[at(fill[at(part.element)]++)] = part.integrals;
+    }
+  return out;
+}
+
+ElementSolid element_solid(const LatticeMesh& lm, const SurfacePieces& pieces) {
+  const TetMesh& mesh = lm.mesh;
+  const Index ne = mesh.num_elements();
   ElementSolid out;
   out.volume.resize(ne);
   out.centroid.resize(ne, 3);
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
     for (Index e = r.begin(); e != r.end(); ++e) {
       const auto x = element_positions(mesh, e);
-      const int k = apex[at(e)];
+      const int k = pieces.apex[at(e)];
       const Eigen::Vector3d& p = x[static_cast<std::size_t>(k)];
       ConeIntegrals integrals;
       if (lm.node_inside[at(mesh.tets(e, k))]) {
@@ -155,9 +165,9 @@ ElementSolid clip_solid_to_elements(const LatticeMesh& lm, const TriangleMesh& s
         integrals.volume = v;
         integrals.moment = v * (0.25 * (x[0] + x[1] + x[2] + x[3]) - p);
       }
-      for (Index c = offsets[at(e)]; c < offsets[at(e) + 1]; ++c) {
-        integrals.volume += sorted[at(c)]->volume;
-        integrals.moment += sorted[at(c)]->moment;
+      for (Index c = pieces.first[at(e)]; c < pieces.first[at(e) + 1]; ++c) {
+        integrals.volume += pieces.integrals[at(c)].volume;
+        integrals.moment += pieces.integrals[at(c)].moment;
       }
       if (integrals.volume > 0.0) {
         out.volume[e] = integrals.volume;
@@ -169,6 +179,10 @@ ElementSolid clip_solid_to_elements(const LatticeMesh& lm, const TriangleMesh& s
     }
   });
   return out;
+}
+
+ElementSolid clip_solid_to_elements(const LatticeMesh& lm, const TriangleMesh& surface) {
+  return element_solid(lm, slice_surface(lm, surface));
 }
 
 Eigen::VectorXd exact_node_masses(const LatticeMesh& lm, const ElementSolid& solid, double density,

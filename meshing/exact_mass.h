@@ -2,9 +2,13 @@
 // Exact sub-element masses (W&T sec. 6): the solid inside each element,
 // clipped from the closed surface, and node masses spread from it with
 // barycentric weights, so total mass and centre of mass are exact.
+#include <array>
+#include <cstdint>
 #include <span>
+#include <vector>
 
 #include "core/triangle_mesh.h"
+#include "meshing/convex_clip.h"
 #include "meshing/lattice_mesh.h"
 
 namespace goo {
@@ -28,6 +32,34 @@ struct ElementSolid {
 /// voxelisation. The pieces come from slicing each triangle along the
 /// lattice's planes (lattice_slicing.h): no search for candidate elements.
 ElementSolid clip_solid_to_elements(const LatticeMesh& lattice_mesh, const TriangleMesh& surface);
+
+/// The surface's pieces in each element (the slicing of clip_solid_to_elements,
+/// kept for the material's parts, material_parts.h): element e's are
+/// first[e] .. first[e + 1] − 1, their triangles increasing (a triangle has
+/// one piece in an element), each with its volume integrals from the
+/// element's apex.
+struct SurfacePieces {
+  std::vector<std::uint8_t> apex;        ///< #E: the apex corner (see above)
+  std::vector<Index> first;              ///< #E + 1
+  std::vector<Index> triangle;           ///< per piece
+  std::vector<ConeIntegrals> integrals;  ///< per piece: cone from the apex − cone over its shadow
+};
+SurfacePieces slice_surface(const LatticeMesh& lattice_mesh, const TriangleMesh& surface);
+/// clip_solid_to_elements from the pieces: the same numbers.
+ElementSolid element_solid(const LatticeMesh& lattice_mesh, const SurfacePieces& pieces);
+
+/// The building blocks of clip_solid_to_elements, shared with the material's
+/// parts (material_parts.h):
+/// for each node, the least distance to the plane of a surface triangle
+/// whose bounding box holds the node (0 where the surface passes through it);
+std::vector<double> node_surface_distances(const LatticeMesh& lattice_mesh, const TriangleMesh& surface);
+/// each element's apex: the corner farthest from those planes (the first on
+/// a tie), on the surface only where all four are;
+std::vector<std::uint8_t> element_apexes(const TetMesh& mesh, const std::vector<double>& distance);
+/// a surface piece's share of its element's volume integrals with corner
+/// `apex` of x as apex: the cone of the piece minus the cone over its
+/// central projection onto the face opposite the apex.
+ConeIntegrals part_integrals(const std::array<Eigen::Vector3d, 4>& x, int apex, const Polygon& piece);
 
 /// Node masses (W&T eq. 5): element e holds m = ρ V_e / det(Fe_e) (ρ V_e if
 /// `det_Fe` is empty) and gives b_i(c_e) m to its node i, b the barycentric

@@ -2,6 +2,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cmath>
@@ -13,6 +14,7 @@
 #include "core/surface_topology.h"
 #include "core/union_find.h"
 #include "meshing/convex_clip.h"
+#include "meshing/exact_mass.h"
 #include "meshing/exact_predicates.h"
 #include "meshing/lattice_slicing.h"
 
@@ -180,6 +182,12 @@ struct ElementClasses {
   std::vector<int> intervals;
   std::array<int, 7> interval_first{};
   bool degenerate = false;
+  /// One surface patch at most (found without exact tests): one part, and
+  /// no intervals walked.
+  bool simple = false;
+  /// An element examined exactly: the triangles meeting its interior
+  /// (increasing), until they are moved to the pairs.
+  std::vector<Index> triangles;
   [[nodiscard]] int count() const { return static_cast<int>(class_on_edge.size()); }
 };
 
@@ -323,6 +331,59 @@ void classify_element(const Corners& x, const std::array<Index, 4>& nodes, const
           label[static_cast<std::size_t>(sets.find(corner_item[static_cast<std::size_t>(k)]))];
 }
 
+using Across = Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor>;
+
+/// Whether the segment uw clearly passes through the open tetrahedron of
+/// these (outward, unit-normal) face planes: a point of it more than
+/// `margin` inside every plane, computed in floating point. The round-off
+/// is far below the margin, so a true answer is exact; false may be wrong
+/// within the margin.
+bool segment_clearly_inside(const std::array<Plane, 4>& planes, const Vec& u, const Vec& w, double margin) {
+  double s0 = 0.0, s1 = 1.0;
+  for (const Plane& plane : planes) {
+    const double du = plane.distance(u) + margin, dw = plane.distance(w) + margin;
+    if (du >= 0.0 && dw >= 0.0) return false;
+    if (du >= 0.0)
+      s0 = std::max(s0, du / (du - dw));
+    else if (dw >= 0.0)
+      s1 = std::min(s1, du / (du - dw));
+  }
+  if (!(s1 > s0)) return false;
+  const Vec middle = u + 0.5 * (s0 + s1) * (w - u);
+  for (const Plane& plane : planes)
+    if (!(plane.distance(middle) < -margin)) return false;
+  return true;
+}
+
+/// The number of patches among an element's triangles (increasing), two
+/// joined where their shared edge clearly passes through the element's
+/// interior (segment_clearly_inside): only where the exact test joins
+/// them, so one patch here is one patch exactly.
+int count_patches(const Corners& x, const TriangleMesh& surface, const Across& across, const Index* tris, int m,
+                  double margin, SmallSets& sets) {
+  if (m <= 1) return m;
+  const std::array<Plane, 4> planes = tet_planes(x);
+  sets.reset(m);
+  int count = m;
+  for (int i = 0; i < m && count > 1; ++i) {
+    const Index t = tris[i];
+    for (int k = 0; k < 3; ++k) {
+      const Index nb = across(t, k);
+      if (nb <= t) continue;
+      const Index* it = std::lower_bound(tris, tris + m, nb);
+      if (it == tris + m || *it != nb) continue;
+      const int j = static_cast<int>(it - tris);
+      if (sets.find(i) == sets.find(j)) continue;
+      if (segment_clearly_inside(planes, surface.vertices.row(surface.triangles(t, k)).transpose(),
+                                 surface.vertices.row(surface.triangles(t, (k + 1) % 3)).transpose(), margin)) {
+        sets.unite(i, j);
+        --count;
+      }
+    }
+  }
+  return count;
+}
+
 /// Two elements' parts joined across their shared face: the element and
 /// face (corner opposite) on each side, and the pairs of parts whose
 /// material meets on the face.
@@ -361,9 +422,10 @@ int edge_index(int a, int b) {
 
 /// Which parts of the two elements sharing a face have material that meets
 /// on it: the same inside interval of one of the face's edges, or a
-/// triangle that crosses the face. Where either element is degenerate or
-/// the two disagree on an edge's intervals, every part of both is joined
-/// (as a re-mesh without parts has it).
+/// triangle that crosses the face. A simple element's one part holds every
+/// inside interval of its edges. Where either element is degenerate or two
+/// walked elements disagree on an edge's intervals, every part of both is
+/// joined (as a re-mesh without parts has it).
 void join_across_face(const LatticeMesh& lm, const TriangleMesh& surface, const std::vector<ElementClasses>& classes,
                       const MaterialParts& out, FaceJoin& join) {
   const TetMesh& mesh = lm.mesh;
@@ -389,56 +451,98 @@ void join_across_face(const LatticeMesh& lm, const TriangleMesh& surface, const 
     for (int k = 0; k < 4; ++k)
       if (mesh.tets(e1, k) == node) corner1[static_cast<std::size_t>(i)] = k;
   }
-  // Intervals of the face's three edges.
-  for (int i = 0; i < 3; ++i)
-    for (int j = i + 1; j < 3; ++j) {
-      const int a = edge_index(corner0[static_cast<std::size_t>(i)], corner0[static_cast<std::size_t>(j)]);
-      const int b = edge_index(corner1[static_cast<std::size_t>(i)], corner1[static_cast<std::size_t>(j)]);
-      const int len0 =
-          c0.interval_first[static_cast<std::size_t>(a + 1)] - c0.interval_first[static_cast<std::size_t>(a)];
-      const int len1 =
-          c1.interval_first[static_cast<std::size_t>(b + 1)] - c1.interval_first[static_cast<std::size_t>(b)];
-      if (len0 != len1) return join_all();
-      for (int r = 0; r < len0; ++r) {
-        const int p0 = c0.intervals[static_cast<std::size_t>(c0.interval_first[static_cast<std::size_t>(a)] + r)];
-        const int p1 = c1.intervals[static_cast<std::size_t>(c1.interval_first[static_cast<std::size_t>(b)] + r)];
-        if ((p0 >= 0) != (p1 >= 0)) return join_all();
-        if (p0 >= 0) join.parts.push_back({base0 + p0, base1 + p1});
-      }
-    }
-  // Triangles of both elements that cross the face.
   const std::array<Vec, 3> face = {mesh.positions.row(mesh.tets(e0, corner0[0])).transpose(),
                                    mesh.positions.row(mesh.tets(e0, corner0[1])).transpose(),
                                    mesh.positions.row(mesh.tets(e0, corner0[2])).transpose()};
-  Index i = out.pair_first[at(e0)], j = out.pair_first[at(e1)];
-  const Index i_end = out.pair_first[at(e0) + 1], j_end = out.pair_first[at(e1) + 1];
-  while (i < i_end && j < j_end) {
-    const Index t0 = out.pair_triangle[at(i)], t1 = out.pair_triangle[at(j)];
-    if (t0 < t1) {
-      ++i;
-    } else if (t1 < t0) {
-      ++j;
-    } else {
-      const Answer a = triangle_crosses_face(triangle_corners(surface, t0), face);
+  auto crosses_face = [&](Index t) { return triangle_crosses_face(triangle_corners(surface, t), face); };
+  const Index i_begin = out.pair_first[at(e0)], i_end = out.pair_first[at(e0) + 1];
+  const Index j_begin = out.pair_first[at(e1)], j_end = out.pair_first[at(e1) + 1];
+  if (c0.simple && c1.simple) {
+    // One part each: joined if an inside corner is on the face, or a
+    // triangle of either crosses it (the material's trace on the face is
+    // bounded by the face's edges and the triangles crossing it).
+    for (const int k : corner0)
+      if (lm.node_inside[at(mesh.tets(e0, k))]) return join_all();
+    Index i = i_begin, j = j_begin;
+    while (i < i_end || j < j_end) {
+      const Index t0 = i < i_end ? out.pair_triangle[at(i)] : std::numeric_limits<Index>::max();
+      const Index t1 = j < j_end ? out.pair_triangle[at(j)] : std::numeric_limits<Index>::max();
+      const Index t = std::min(t0, t1);
+      if (crosses_face(t) != Answer::no) return join_all();
+      i += t0 == t ? 1 : 0;
+      j += t1 == t ? 1 : 0;
+    }
+    return;
+  }
+  if (c0.simple || c1.simple) {
+    // The walked element's parts with material on the face each join the
+    // simple one's part: those holding an inside interval of a face edge,
+    // and those of its triangles crossing the face (every triangle that
+    // crosses the face meets the walked element's interior: exactly found).
+    const bool walked0 = !c0.simple;
+    const ElementClasses& w = walked0 ? c0 : c1;
+    const std::array<int, 3>& corner = walked0 ? corner0 : corner1;
+    const Index base = walked0 ? base0 : base1, other = walked0 ? base1 : base0;
+    auto add = [&](Index part) {
+      join.parts.push_back(walked0 ? std::array<Index, 2>{part, other} : std::array<Index, 2>{other, part});
+    };
+    for (int i = 0; i < 3; ++i)
+      for (int j = i + 1; j < 3; ++j) {
+        const int a = edge_index(corner[static_cast<std::size_t>(i)], corner[static_cast<std::size_t>(j)]);
+        for (int r = w.interval_first[static_cast<std::size_t>(a)]; r < w.interval_first[static_cast<std::size_t>(a + 1)];
+             ++r)
+          if (w.intervals[static_cast<std::size_t>(r)] >= 0) add(base + w.intervals[static_cast<std::size_t>(r)]);
+      }
+    const Index begin = walked0 ? i_begin : j_begin, end = walked0 ? i_end : j_end;
+    for (Index i = begin; i < end; ++i) {
+      const Answer a = crosses_face(out.pair_triangle[at(i)]);
       if (a == Answer::degenerate) return join_all();
-      if (a == Answer::yes) join.parts.push_back({out.pair_part[at(i)], out.pair_part[at(j)]});
-      ++i;
-      ++j;
+      if (a == Answer::yes) add(out.pair_part[at(i)]);
+    }
+  } else {
+    // Intervals of the face's three edges.
+    for (int i = 0; i < 3; ++i)
+      for (int j = i + 1; j < 3; ++j) {
+        const int a = edge_index(corner0[static_cast<std::size_t>(i)], corner0[static_cast<std::size_t>(j)]);
+        const int b = edge_index(corner1[static_cast<std::size_t>(i)], corner1[static_cast<std::size_t>(j)]);
+        const int len0 =
+            c0.interval_first[static_cast<std::size_t>(a + 1)] - c0.interval_first[static_cast<std::size_t>(a)];
+        const int len1 =
+            c1.interval_first[static_cast<std::size_t>(b + 1)] - c1.interval_first[static_cast<std::size_t>(b)];
+        if (len0 != len1) return join_all();
+        for (int r = 0; r < len0; ++r) {
+          const int p0 = c0.intervals[static_cast<std::size_t>(c0.interval_first[static_cast<std::size_t>(a)] + r)];
+          const int p1 = c1.intervals[static_cast<std::size_t>(c1.interval_first[static_cast<std::size_t>(b)] + r)];
+          if ((p0 >= 0) != (p1 >= 0)) return join_all();
+          if (p0 >= 0) join.parts.push_back({base0 + p0, base1 + p1});
+        }
+      }
+    // Triangles of both elements that cross the face.
+    Index i = i_begin, j = j_begin;
+    while (i < i_end && j < j_end) {
+      const Index t0 = out.pair_triangle[at(i)], t1 = out.pair_triangle[at(j)];
+      if (t0 < t1) {
+        ++i;
+      } else if (t1 < t0) {
+        ++j;
+      } else {
+        const Answer a = crosses_face(t0);
+        if (a == Answer::degenerate) return join_all();
+        if (a == Answer::yes) join.parts.push_back({out.pair_part[at(i)], out.pair_part[at(j)]});
+        ++i;
+        ++j;
+      }
     }
   }
   std::sort(join.parts.begin(), join.parts.end());
   join.parts.erase(std::unique(join.parts.begin(), join.parts.end()), join.parts.end());
 }
 
-/// The virtual-node copies (Molino, Bao & Fedkiw 2004): each part has its
-/// own copy of its element's four corners; copies of two parts joined
-/// across a face are one at the face's three nodes.
-void copy_nodes(const LatticeMesh& lm, const TriangleMesh& surface, const std::vector<ElementClasses>& classes,
-                MaterialParts& out) {
-  const TetMesh& mesh = lm.mesh;
+/// Every face shared by two elements (each face as its sorted nodes,
+/// sorted: equal neighbours are the two sides of one face), in a fixed
+/// order, and each element's neighbour across each face (−1: none).
+std::vector<FaceJoin> shared_faces(const TetMesh& mesh, std::vector<std::array<Index, 4>>& neighbours) {
   const Index ne = mesh.num_elements();
-  // Shared faces: every element face as its sorted nodes, sorted; equal
-  // neighbours are the two sides of one face.
   struct Side {
     std::array<Index, 3> nodes;
     Index element;
@@ -447,20 +551,32 @@ void copy_nodes(const LatticeMesh& lm, const TriangleMesh& surface, const std::v
   };
   std::vector<Side> sides;
   sides.reserve(4 * at(ne));
-  for (Index e = 0; e < ne; ++e) {
-    if (out.num_parts(e) == 0) continue;
+  for (Index e = 0; e < ne; ++e)
     for (int k = 0; k < 4; ++k) {
       std::array<Index, 3> n = {mesh.tets(e, kTetFaces[k][0]), mesh.tets(e, kTetFaces[k][1]),
                                 mesh.tets(e, kTetFaces[k][2])};
       std::sort(n.begin(), n.end());
       sides.push_back({n, e, k});
     }
-  }
-  std::sort(sides.begin(), sides.end());
+  tbb::parallel_sort(sides.begin(), sides.end());
+  neighbours.assign(at(ne), {-1, -1, -1, -1});
   std::vector<FaceJoin> joins;
   for (std::size_t i = 0; i + 1 < sides.size(); ++i)
-    if (sides[i].nodes == sides[i + 1].nodes)
-      joins.push_back({{sides[i].element, sides[i + 1].element}, {sides[i].opposite, sides[i + 1].opposite}, {}});
+    if (sides[i].nodes == sides[i + 1].nodes) {
+      const Side &a = sides[i], &b = sides[i + 1];
+      joins.push_back({{a.element, b.element}, {a.opposite, b.opposite}, {}});
+      neighbours[at(a.element)][static_cast<std::size_t>(a.opposite)] = b.element;
+      neighbours[at(b.element)][static_cast<std::size_t>(b.opposite)] = a.element;
+    }
+  return joins;
+}
+
+/// The virtual-node copies (Molino, Bao & Fedkiw 2004): each part has its
+/// own copy of its element's four corners; copies of two parts joined
+/// across a face are one at the face's three nodes.
+void copy_nodes(const LatticeMesh& lm, const TriangleMesh& surface, const std::vector<ElementClasses>& classes,
+                std::vector<FaceJoin>& joins, MaterialParts& out) {
+  const TetMesh& mesh = lm.mesh;
   tbb::parallel_for(std::size_t{0}, joins.size(),
                     [&](std::size_t f) { join_across_face(lm, surface, classes, out, joins[f]); });
   // Copies: one item per part corner, joined at each joined face's nodes.
@@ -514,6 +630,10 @@ Index MaterialParts::degenerate_elements() const {
 }
 
 MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface) {
+  return material_parts(lm, surface, slice_surface(lm, surface));
+}
+
+MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface, const SurfacePieces& pieces) {
   const TetMesh& mesh = lm.mesh;
   const Index ne = mesh.num_elements();
   if (static_cast<Index>(lm.node_inside.size()) != mesh.num_nodes())
@@ -535,74 +655,35 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface)
       i = j;
     }
   }
-
-  // 1. The (element, triangle) pairs whose interiors meet, per chunk of
-  // triangles in parallel, then counted into per-element lists (chunks in
-  // order: triangles increasing in each list).
-  struct Pair {
-    Index element, triangle;
-    bool degenerate;
-    Sides sides;
-  };
-  constexpr std::size_t kChunk = 256;
-  const auto num_triangles = static_cast<std::size_t>(surface.num_triangles());
-  std::vector<std::vector<Pair>> chunks((num_triangles + kChunk - 1) / kChunk);
   const double slack = 1e-9 * lattice.spacing();
-  tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t chunk) {
-    auto& found = chunks[chunk];
-    for (std::size_t index = chunk * kChunk; index < std::min(num_triangles, (chunk + 1) * kChunk); ++index) {
-      const auto t = static_cast<Index>(index);
-      const auto tri = triangle_corners(surface, t);
-      const Vec lo = tri[0].cwiseMin(tri[1]).cwiseMin(tri[2]), hi = tri[0].cwiseMax(tri[1]).cwiseMax(tri[2]);
-      lattice.for_each_tet_shape_near(
-          lo, hi, [&](BccLattice::Key key, const Eigen::Vector3i& cell, int axis, int edge) {
-            const Index e = lm.element(key);
-            if (e < 0) return;
-            const Corners x = lattice.tet_positions(cell, axis, edge);
-            Vec tet_lo = x[0], tet_hi = x[0];
-            for (const auto& p : x) {
-              tet_lo = tet_lo.cwiseMin(p);
-              tet_hi = tet_hi.cwiseMax(p);
-            }
-            if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any()) return;
-            // A face plane of either that separates them by more than the slack
-            // separates them exactly (the round-off of the projections is far
-            // smaller); the other separating axes are left to the exact test.
-            if (!overlaps_inflated(tri, x, slack, false)) return;
-            const Sides sides = sides_of(x, tri);
-            const Answer a = triangle_meets_tet(x, tri, sides);
-            if (a != Answer::no) found.push_back({e, t, a == Answer::degenerate, sides});
-          });
-    }
-  });
-  MaterialParts out;
-  out.pair_first.assign(at(ne) + 1, 0);
-  out.degenerate.assign(at(ne), 0);
-  for (const auto& chunk : chunks)
-    for (const Pair& p : chunk) ++out.pair_first[at(p.element) + 1];
-  for (std::size_t e = 0; e + 1 < out.pair_first.size(); ++e) out.pair_first[e + 1] += out.pair_first[e];
-  out.pair_triangle.resize(at(out.pair_first.back()));
-  std::vector<Sides> pair_sides(out.pair_triangle.size());
-  {
-    std::vector<Index> fill(out.pair_first.begin(), out.pair_first.end() - 1);
-    for (const auto& chunk : chunks)
-      for (const Pair& p : chunk) {
-        pair_sides[at(fill[at(p.element)])] = p.sides;
-        out.pair_triangle[at(fill[at(p.element)]++)] = p.triangle;
-        if (p.degenerate) out.degenerate[at(p.element)] = 1;
-      }
-  }
-  chunks.clear();
-  chunks.shrink_to_fit();
+  // 1. The surface's pieces in each element, with their volume shares from
+  // the element's apex (the exact masses' slicing): the pairs of the
+  // elements examined without exact tests (step 3).
+  if (static_cast<Index>(pieces.first.size()) != ne + 1 || pieces.apex.size() != at(ne))
+    throw Error("material_parts: the surface's pieces are not of this lattice mesh");
+  const std::vector<std::uint8_t>& apex = pieces.apex;
+  const std::vector<Index>& slice_first = pieces.first;
+  const std::vector<Index>& slice_triangle = pieces.triangle;
+  const std::vector<ConeIntegrals>& slice_integrals = pieces.integrals;
 
-  // 2. Each element's candidate parts.
+  // 2. The faces shared by two elements.
+  std::vector<std::array<Index, 4>> neighbours;
+  std::vector<FaceJoin> joins = shared_faces(mesh, neighbours);
+
+  // 3. Each element's candidate parts. An element whose triangles form one
+  // patch, by a test that joins two only where their shared edge passes a
+  // margin inside the element (so never where the exact test would not),
+  // has one part: the surface's one patch bounds one region of material.
+  // The others are examined exactly: their triangles (the pieces of theirs
+  // and their face neighbours', so a piece the slicing rounded away is
+  // found) tested against the element with exact predicates, and their
+  // classes walked (classify_element).
   std::vector<ElementClasses> classes(at(ne));
-  // The apex of the volume sums (step 3): corner 0, which is on no triangle
-  // of a non-degenerate element; in a degenerate one the corner farthest
-  // from the planes of its triangles.
-  std::vector<std::uint8_t> apex(at(ne), 0);
+  std::vector<std::uint8_t> degenerate(at(ne), 0);
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
     Scratch scratch;
+    std::vector<Index> candidates;
+    std::vector<Sides> sides;
     for (Index e = r.begin(); e != r.end(); ++e) {
       const Corners x = element_corners(mesh, e);
       std::array<bool, 4> inside{};
@@ -611,86 +692,94 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface)
         nodes[static_cast<std::size_t>(k)] = mesh.tets(e, k);
         inside[static_cast<std::size_t>(k)] = lm.node_inside[at(mesh.tets(e, k))] != 0;
       }
-      const Index begin = out.pair_first[at(e)];
-      const int m = static_cast<int>(out.pair_first[at(e) + 1] - begin);
+      const Index* own = slice_triangle.data() + slice_first[at(e)];
+      const int m = static_cast<int>(slice_first[at(e) + 1] - slice_first[at(e)]);
       ElementClasses& c = classes[at(e)];
-      classify_element(x, nodes, inside, surface, across, out.pair_triangle.data() + begin, pair_sides.data() + begin,
-                       m, scratch, c);
-      if (out.degenerate[at(e)] && !c.degenerate) {
-        c.degenerate = true;
+      // Corners inside and outside with no triangle between them: the
+      // surface passes through a corner or along a face (examined exactly).
+      const bool mixed = (inside[0] || inside[1] || inside[2] || inside[3]) &&
+                         !(inside[0] && inside[1] && inside[2] && inside[3]);
+      if (!(m == 0 && mixed) && count_patches(x, surface, across, own, m, slack, scratch.sets) <= 1) {
+        c.simple = true;
         const bool any = m > 0 || inside[0] || inside[1] || inside[2] || inside[3];
         c.class_on_edge.assign(any ? 1 : 0, 1);
         c.triangle_class.assign(static_cast<std::size_t>(m), 0);
         for (int k = 0; k < 4; ++k)
           c.corner_class[static_cast<std::size_t>(k)] = inside[static_cast<std::size_t>(k)] ? 0 : -1;
-      }
-      out.degenerate[at(e)] = c.degenerate ? 1 : 0;
-      if (c.degenerate) {
-        double farthest = -1.0;
-        for (int k = 0; k < 4; ++k) {
-          double nearest = std::numeric_limits<double>::infinity();
-          for (int i = 0; i < m; ++i) {
-            const auto t = triangle_corners(surface, out.pair_triangle[at(begin + i)]);
-            const Vec n = (t[1] - t[0]).cross(t[2] - t[0]);
-            if (n.squaredNorm() > 0.0)
-              nearest = std::min(nearest, std::abs(n.normalized().dot(x[static_cast<std::size_t>(k)] - t[0])));
-          }
-          if (nearest > farthest) {
-            farthest = nearest;
-            apex[at(e)] = static_cast<std::uint8_t>(k);
-          }
+      } else {
+        candidates.assign(own, own + m);
+        for (const Index f : neighbours[at(e)])
+          if (f >= 0) candidates.insert(candidates.end(), slice_triangle.begin() + slice_first[at(f)],
+                                        slice_triangle.begin() + slice_first[at(f) + 1]);
+        std::sort(candidates.begin(), candidates.end());
+        candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+        c.triangles.clear();
+        sides.clear();
+        bool undecided = false;
+        for (const Index t : candidates) {
+          const auto tri = triangle_corners(surface, t);
+          // A face plane of either that separates them by more than the
+          // slack separates them exactly (the round-off of the projections
+          // is far smaller).
+          if (!overlaps_inflated(tri, x, slack, false)) continue;
+          const Sides s = sides_of(x, tri);
+          const Answer a = triangle_meets_tet(x, tri, s);
+          if (a == Answer::no) continue;
+          undecided = undecided || a == Answer::degenerate;
+          c.triangles.push_back(t);
+          sides.push_back(s);
         }
+        const int count = static_cast<int>(c.triangles.size());
+        classify_element(x, nodes, inside, surface, across, c.triangles.data(), sides.data(), count, scratch, c);
+        if (undecided && !c.degenerate) {
+          c.degenerate = true;
+          const bool any = count > 0 || inside[0] || inside[1] || inside[2] || inside[3];
+          c.class_on_edge.assign(any ? 1 : 0, 1);
+          c.triangle_class.assign(static_cast<std::size_t>(count), 0);
+          for (int k = 0; k < 4; ++k)
+            c.corner_class[static_cast<std::size_t>(k)] = inside[static_cast<std::size_t>(k)] ? 0 : -1;
+        }
+        degenerate[at(e)] = c.degenerate ? 1 : 0;
       }
     }
   });
 
-  // 3. Each pair's volume share (the cone of its piece from corner 0 minus
-  // the cone over the piece's shadow on the opposite face), from the
-  // triangles sliced along the lattice's planes; pieces of round-off size
-  // in an element the exact test did not find are dropped.
+  // 4. The pairs: a simple element's pieces, an examined element's exactly
+  // found triangles, and each pair's volume share from its piece (none for
+  // a triangle found exactly whose piece the slicing rounded away).
+  MaterialParts out;
+  out.degenerate = std::move(degenerate);
+  out.pair_first.assign(at(ne) + 1, 0);
+  for (Index e = 0; e < ne; ++e)
+    out.pair_first[at(e) + 1] = out.pair_first[at(e)] + (classes[at(e)].simple
+                                                             ? slice_first[at(e) + 1] - slice_first[at(e)]
+                                                             : static_cast<Index>(classes[at(e)].triangles.size()));
+  out.pair_triangle.resize(at(out.pair_first.back()));
   std::vector<ConeIntegrals> pair_integrals(out.pair_triangle.size());
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, num_triangles, 64), [&](const tbb::blocked_range<std::size_t>& r) {
-        LatticeSlicer slicer;
-        std::vector<PolygonPart> parts;
-        for (std::size_t index = r.begin(); index != r.end(); ++index) {
-          const auto t = static_cast<Index>(index);
-          Polygon triangle;
-          for (int k = 0; k < 3; ++k) triangle.push(surface.vertices.row(surface.triangles(t, k)).transpose());
-          if ((triangle.v[1] - triangle.v[0]).cross(triangle.v[2] - triangle.v[0]).squaredNorm() == 0.0) continue;
-          slicer.polygon_parts(lattice, triangle, 1e-12, parts);
-          for (const PolygonPart& part : parts) {
-            const Index e = lm.element(part.key);
-            if (e < 0) continue;
-            const auto first = out.pair_triangle.begin() + out.pair_first[at(e)];
-            const auto last = out.pair_triangle.begin() + out.pair_first[at(e) + 1];
-            const auto it = std::lower_bound(first, last, t);
-            if (it == last || *it != t) continue;
-            const Corners x = element_corners(mesh, e);
-            const int k = apex[at(e)];
-            const Vec& p = x[static_cast<std::size_t>(k)];
-            const auto& face = kTetFaces[k];
-            const Vec& a = x[static_cast<std::size_t>(face[0])];
-            const Vec normal =
-                (x[static_cast<std::size_t>(face[1])] - a).cross(x[static_cast<std::size_t>(face[2])] - a).normalized();
-            const double height = normal.dot(a - p);
-            ConeIntegrals integrals;
-            integrals.add_cone(p, part.polygon);
-            Polygon shadow = part.polygon;
-            for (int i = 0; i < shadow.size; ++i) {
-              const Vec y = part.polygon.v[static_cast<std::size_t>(i)] - p;
-              const double along = y.dot(normal);
-              shadow.v[static_cast<std::size_t>(i)] = along > 1e-300 ? Vec(p + y * (height / along)) : p;
-            }
-            integrals.add_cone(p, shadow, -1.0);
-            ConeIntegrals& sum = pair_integrals[static_cast<std::size_t>(it - out.pair_triangle.begin())];
-            sum.volume += integrals.volume;
-            sum.moment += integrals.moment;
-          }
-        }
-      });
+  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index e = r.begin(); e != r.end(); ++e) {
+      ElementClasses& c = classes[at(e)];
+      const Index begin = out.pair_first[at(e)], end = out.pair_first[at(e) + 1];
+      const auto s_begin = slice_triangle.begin() + slice_first[at(e)];
+      const auto s_end = slice_triangle.begin() + slice_first[at(e) + 1];
+      if (c.simple) {
+        std::copy(s_begin, s_end, out.pair_triangle.begin() + begin);
+        std::copy(slice_integrals.begin() + slice_first[at(e)], slice_integrals.begin() + slice_first[at(e) + 1],
+                  pair_integrals.begin() + begin);
+        continue;
+      }
+      std::copy(c.triangles.begin(), c.triangles.end(), out.pair_triangle.begin() + begin);
+      c.triangles.clear();
+      c.triangles.shrink_to_fit();
+      for (Index i = begin; i < end; ++i) {
+        const auto it = std::lower_bound(s_begin, s_end, out.pair_triangle[at(i)]);
+        if (it != s_end && *it == out.pair_triangle[at(i)])
+          pair_integrals[at(i)] = slice_integrals[static_cast<std::size_t>(it - slice_triangle.begin())];
+      }
+    }
+  });
 
-  // 4. Candidate volumes; an element with a patch of its own that encloses
+  // 5. Candidate volumes; an element with a patch of its own that encloses
   // air (a hole through its material) keeps one part.
   out.first_part.assign(at(ne) + 1, 0);
   std::vector<std::vector<ConeIntegrals>> volumes(at(ne));
@@ -759,8 +848,8 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface)
     }
   });
 
-  // 5. The parts joined across shared faces, and the node copies.
-  copy_nodes(lm, surface, classes, out);
+  // 6. The parts joined across shared faces, and the node copies.
+  copy_nodes(lm, surface, classes, joins, out);
   return out;
 }
 

@@ -13,6 +13,7 @@
 
 #include "core/parallel.h"
 #include "core/triangle_mesh.h"
+#include "meshing/exact_mass.h"
 #include "meshing/lattice_mesh.h"
 
 namespace goo {
@@ -27,9 +28,10 @@ struct MaterialParts {
   ///   V(part) = Σ over the part's surface pieces π of [cone(p, π) − cone(p, π′)]
   ///             + V(element) if p lies in the part,
   /// π′ the central projection of π from p onto the face opposite p (the
-  /// rays from p leave the part through its pieces only). p is corner 0,
-  /// which lies on no triangle unless the element is degenerate; there, the
-  /// corner farthest from its triangles' planes.
+  /// rays from p leave the part through its pieces only). p is the exact
+  /// masses' apex (the corner farthest from the planes of the triangles
+  /// near it, on the surface only where all four corners are), so a simple
+  /// element's one part has the clipped solid's volume bit for bit.
   Eigen::VectorXd part_volume;
   /// #P × 3: the centroid of each part (the element's where its volume is 0).
   Points part_centroid;
@@ -38,13 +40,15 @@ struct MaterialParts {
   std::vector<std::array<Index, 4>> corner_part;
   /// The triangles that meet each element's interior, per element
   /// (pair_first[e] .. pair_first[e + 1] − 1, triangles increasing), and the
-  /// part each one's piece in the element bounds.
+  /// part each one's piece in the element bounds: found with exact tests in
+  /// an examined element, the slicing's pieces in a simple one (the two
+  /// differ by pieces of round-off size only).
   std::vector<Index> pair_first, pair_triangle, pair_part;
-  /// #E: 1 where an exact test met a degenerate configuration (a surface
-  /// vertex on a face of the element, an edge through an edge, two sheets
-  /// crossing an element edge within 10⁻⁹ of its length of each other): the
-  /// element's material is then taken as one part, as a re-mesh without
-  /// parts has it.
+  /// #E: 1 where an exact test met a degenerate configuration in an
+  /// examined element (a surface vertex on a face of the element, an edge
+  /// through an edge, two sheets crossing an element edge within 10⁻⁹ of its
+  /// length of each other): the element's material is then taken as one
+  /// part, as a re-mesh without parts has it.
   std::vector<std::uint8_t> degenerate;
 
   /// #P: the node copy at each corner of each part (the virtual-node
@@ -76,10 +80,20 @@ struct MaterialParts {
 /// (a strand through it, a droplet in it) is a part of its own if it encloses
 /// material (positive volume); if it encloses air (a hole through the
 /// material), every candidate part of the element is joined into one.
-/// Requires a closed, outward-oriented surface, the lattice mesh built
-/// around it (positions at rest, inside flags). Parallel over TBB; the same
-/// result for any thread count.
+/// Only elements whose pieces form two or more patches are examined so
+/// (exact pairs, the intervals walked): the others are *simple*, one part,
+/// found without an exact test. Their pieces come from the exact masses'
+/// slicing, and two pieces are joined into a patch where the shared edge
+/// passes through the element a margin inside its faces (10⁻⁹ of the
+/// spacing: far above round-off), so only where the exact test joins them:
+/// one patch there is one patch exactly, and one surface patch bounds one
+/// region of material. Requires a closed, outward-oriented surface, the
+/// lattice mesh built around it (positions at rest, inside flags). Parallel
+/// over TBB; the same result for any thread count.
 MaterialParts material_parts(const LatticeMesh& lattice_mesh, const TriangleMesh& surface);
+/// The same from the surface's pieces the exact masses sliced (exact_mass.h).
+MaterialParts material_parts(const LatticeMesh& lattice_mesh, const TriangleMesh& surface,
+                             const SurfacePieces& pieces);
 
 /// The lattice mesh with each element copied once per part of its material
 /// and each node once per node copy (the virtual-node mesh; docs/lattice.md,

@@ -77,9 +77,10 @@ Eigen::VectorXd solid_fractions(const ElementSolid& solid, const Eigen::VectorXd
 /// body.embedding is the surface embedded in lm. Nothing changes where no
 /// element is split and no node copied. Returns the number of elements
 /// with two or more parts.
-Index separate_parts(const LatticeMesh& lm, const TriangleMesh& surface, const ElementSolid& solid,
-                     std::span<const double> det_Fe, Body& body, SeparationReport* report) {
-  const MaterialParts parts = material_parts(lm, surface);
+Index separate_parts(const LatticeMesh& lm, const TriangleMesh& surface, const SurfacePieces& pieces,
+                     const ElementSolid& solid, std::span<const double> det_Fe, Body& body,
+                     SeparationReport* report) {
+  const MaterialParts parts = material_parts(lm, surface, pieces);
   if (report) {
     report->split_elements = parts.split_elements();
     report->degenerate_elements = parts.degenerate_elements();
@@ -175,13 +176,14 @@ MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, doub
                      SeparationReport* report) {
   MeshedBody out{Body{}, build_lattice_mesh(surface, h)};
   out.body = body_on_lattice(out.lattice_mesh, material);
-  const ElementSolid solid = clip_solid_to_elements(out.lattice_mesh, surface);
+  const SurfacePieces pieces = slice_surface(out.lattice_mesh, surface);
+  const ElementSolid solid = element_solid(out.lattice_mesh, pieces);
   out.body.rest_material_volume = solid.volume.sum();
   out.body.solid_fractions = solid_fractions(solid, out.body.rest_volumes);
   out.body.masses = exact_node_masses(out.lattice_mesh, solid, material.density, {}, material.min_mass_fraction);
   out.body.surface_triangles = surface.triangles;
   out.body.embedding = embed(out.lattice_mesh, surface.vertices);
-  if (separate) separate_parts(out.lattice_mesh, surface, solid, {}, out.body, report);
+  if (separate) separate_parts(out.lattice_mesh, surface, pieces, solid, {}, out.body, report);
   return out;
 }
 
@@ -193,8 +195,8 @@ namespace {
 /// state, on the new mesh `body` around `surface`. Returns where each new
 /// node was found in the old mesh.
 NodeSources transfer_state(const Body& old, const TriangleMesh& surface, const LatticeMesh& lm, Body& body,
-                           RemeshReport* report, RemeshTimes& times, StageTimer& timer, ElementSolid& solid,
-                           std::vector<double>& det_Fe) {
+                           RemeshReport* report, RemeshTimes& times, StageTimer& timer, SurfacePieces& pieces,
+                           ElementSolid& solid, std::vector<double>& det_Fe) {
   const NodeSources sources = locate_in_old_mesh(old.tets, old.positions, lm);
   body.velocities = interpolate(sources, old.tets, old.velocities);
   std::vector<Eigen::Matrix3d> old_Fe(at(old.num_elements()));
@@ -212,7 +214,8 @@ NodeSources transfer_state(const Body& old, const TriangleMesh& surface, const L
   // error, which would act as a pressure and, re-mesh after re-mesh, drive
   // the body to the wrong volume. One factor on every Fe restores it:
   // Fe ← r^(−1/3) Fe, r = V_rest / Σ V_solid / det Fe.
-  solid = clip_solid_to_elements(lm, surface);
+  pieces = slice_surface(lm, surface);
+  solid = element_solid(lm, pieces);
   double rest_volume = 0.0;
   for (Index e = 0; e < body.num_elements(); ++e) rest_volume += solid.volume[e] / state.Fe[at(e)].determinant();
   const double r = old.rest_material_volume > 0.0 && rest_volume > 0.0 ? old.rest_material_volume / rest_volume : 1.0;
@@ -306,13 +309,14 @@ MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, Remesh
   Body& body = out.body;
   body = body_on_lattice(lm, old.material);
   times.lattice = timer.lap();
+  SurfacePieces pieces;
   ElementSolid solid;
   std::vector<double> det_Fe;
-  const NodeSources sources = transfer_state(old, surface, lm, body, report, times, timer, solid, det_Fe);
+  const NodeSources sources = transfer_state(old, surface, lm, body, report, times, timer, pieces, solid, det_Fe);
   body.surface_triangles = surface.triangles;
   body.embedding = embed(lm, surface.vertices);
   if (separate) {
-    separate_parts(lm, surface, solid, det_Fe, body, report ? &report->separation : nullptr);
+    separate_parts(lm, surface, pieces, solid, det_Fe, body, report ? &report->separation : nullptr);
     times.separation = timer.lap();
   }
   restore_totals(old, surface, sources, body, report);

@@ -10,6 +10,7 @@
 #include "core/surface_geometry.h"
 #include "core/union_find.h"
 #include "meshing/exact_mass.h"
+#include "meshing/lattice_slicing.h"
 #include "meshing/material_parts.h"
 #include "meshing/voxelize.h"
 #include "tests/common/test_common.h"
@@ -163,10 +164,110 @@ TEST(MaterialParts, AConvexSolidIsOnePartEverywhere) {
   }
 }
 
+/// The prism over a polygon in the x–z plane (vertices `profile`, closed,
+/// its caps the triangle fans `caps`), from y = 0 to y = depth, outward.
+TriangleMesh prism(const std::vector<Eigen::Vector2d>& profile, const std::vector<std::array<int, 3>>& caps,
+                   double depth) {
+  const auto n = static_cast<Index>(profile.size());
+  TriangleMesh mesh;
+  mesh.vertices.resize(2 * n, 3);
+  for (Index i = 0; i < n; ++i) {
+    mesh.vertices.row(i) << profile[at(i)].x(), 0.0, profile[at(i)].y();
+    mesh.vertices.row(n + i) << profile[at(i)].x(), depth, profile[at(i)].y();
+  }
+  std::vector<std::array<Index, 3>> tris;
+  for (const auto& c : caps) {
+    tris.push_back({c[0], c[1], c[2]});
+    tris.push_back({n + c[0], n + c[2], n + c[1]});
+  }
+  for (Index i = 0; i < n; ++i) {
+    const Index j = (i + 1) % n;
+    tris.push_back({j, i, n + i});
+    tris.push_back({j, n + i, n + j});
+  }
+  mesh.triangles.resize(static_cast<Index>(tris.size()), 3);
+  for (std::size_t t = 0; t < tris.size(); ++t)
+    for (int k = 0; k < 3; ++k) mesh.triangles(static_cast<Index>(t), k) = tris[t][static_cast<std::size_t>(k)];
+  if (enclosed_volume_by_z_flux(mesh) < 0.0) flip_orientation(mesh);
+  return mesh;
+}
+
+// One connected solid folded onto itself: a block with a V-shaped notch
+// from the top, its two walls (one triangle pair each) meeting at a crease
+// 0.2 above the bottom, the gap between them narrower than the spacing
+// near it. An element across the gap above the crease holds material of
+// both sides, apart in it (joined below, outside it); a triangle of each
+// wall meets such an element while their shared crease edge passes
+// beneath. The oracle: the block is two convex halves touching on the
+// rectangle below the crease, so an element's material is one part where
+// it reaches both halves and meets the rectangle, else a part per half.
+TEST(MaterialParts, ANotchedBlockIsSplitAcrossItsNotchOnly) {
+  const double h = 0.1, w = 0.1, crease = 0.2, depth = 0.6;
+  const std::vector<Eigen::Vector2d> profile = {{0.0, 0.0}, {0.5, 0.0}, {1.0, 0.0},         {1.0, 1.0},
+                                                {0.5 + w, 1.0}, {0.5, crease}, {0.5 - w, 1.0}, {0.0, 1.0}};
+  const Eigen::Matrix3d R = tilt(0.2);
+  const Eigen::Vector3d shift(0.013, -0.021, 0.007);
+  const TriangleMesh block = moved(prism(profile, {{0, 1, 5}, {0, 5, 6}, {0, 6, 7}, {1, 2, 3}, {1, 3, 4}, {1, 4, 5}},
+                                         depth),
+                                   R, shift);
+  const TriangleMesh left = moved(prism({profile[0], profile[1], profile[5], profile[6], profile[7]},
+                                        {{0, 1, 2}, {0, 2, 3}, {0, 3, 4}}, depth),
+                                  R, shift);
+  const TriangleMesh right = moved(prism({profile[1], profile[2], profile[3], profile[4], profile[5]},
+                                         {{0, 1, 2}, {0, 2, 3}, {0, 3, 4}}, depth),
+                                   R, shift);
+  const LatticeMesh lm = build_lattice_mesh(block, h);
+  const MaterialParts parts = material_parts(lm, block);
+  const ElementSolid a = piece_solid(lm, left), b = piece_solid(lm, right);
+  // Where the halves touch: the rectangle x = 0.5, 0 ≤ z ≤ crease, its area
+  // in each lattice tetrahedron.
+  Polygon contact;
+  for (const auto& [y, z] : {std::pair{0.0, 0.0}, std::pair{depth, 0.0}, std::pair{depth, crease},
+                             std::pair{0.0, crease}})
+    contact.push(R * Eigen::Vector3d(0.5, y, z) + shift);
+  LatticeSlicer slicer;
+  std::vector<PolygonPart> pieces;
+  slicer.polygon_parts(lm.lattice, contact, 1e-12, pieces);
+  std::vector<double> touching(at(lm.mesh.num_elements()), 0.0);
+  for (const PolygonPart& piece : pieces)
+    if (const Index e = lm.element(piece.key); e >= 0) {
+      for (int i = 1; i + 1 < piece.polygon.size; ++i)
+        touching[at(e)] += 0.5 * (piece.polygon.v[static_cast<std::size_t>(i)] - piece.polygon.v[0])
+                                     .cross(piece.polygon.v[static_cast<std::size_t>(i + 1)] - piece.polygon.v[0])
+                                     .norm();
+    }
+  const double tet = lm.lattice.tet_volume(), tiny = 1e-9 * tet, tiny_area = 1e-9 * h * h;
+  Index split = 0, checked = 0;
+  for (Index e = 0; e < lm.mesh.num_elements(); ++e) {
+    const double va = a.volume[e], vb = b.volume[e];
+    if ((va > 0.0 && va <= tiny) || (vb > 0.0 && vb <= tiny) ||
+        (touching[at(e)] > 0.0 && touching[at(e)] <= tiny_area))
+      continue;
+    ++checked;
+    std::vector<double> expected;
+    if (va > tiny && vb > tiny && touching[at(e)] > 0.0)
+      expected = {va + vb};
+    else
+      for (const double v : {va, vb})
+        if (v > tiny) expected.push_back(v);
+    std::vector<double> found;
+    for (Index p = parts.first_part[at(e)]; p < parts.first_part[at(e) + 1]; ++p) found.push_back(parts.part_volume[p]);
+    std::sort(expected.begin(), expected.end());
+    std::sort(found.begin(), found.end());
+    ASSERT_EQ(found.size(), expected.size()) << "element " << e;
+    for (std::size_t i = 0; i < found.size(); ++i) EXPECT_NEAR(found[i], expected[i], 1e-10 * tet) << "element " << e;
+    split += expected.size() >= 2 ? 1 : 0;
+  }
+  EXPECT_GT(checked, lm.mesh.num_elements() * 9 / 10);
+  EXPECT_EQ(parts.split_elements(), split);
+  EXPECT_GT(split, 20);  // the notch's narrow part: about 0.6 × 0.8 / h² faces
+}
+
 // The parts tile each element's solid: their volumes sum to the exact
-// masses' clipped volume, for every lattice case (the aligned cubes are all
-// degenerate configurations: one part wherever a face lies on a lattice
-// plane); a connected solid's elements hold at most a few split ones.
+// masses' clipped volume, for every lattice case (the aligned cubes' faces
+// lie on lattice planes: degenerate configurations, one part where the
+// surface runs through an element's corners); a connected solid's elements
+// hold at most a few split ones.
 TEST(MaterialParts, PartsTileEachElementsSolid) {
   for (const test::Case& c : test::lattice_cases()) {
     SCOPED_TRACE(c.name);
