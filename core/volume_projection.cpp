@@ -81,17 +81,22 @@ bool any_inverted(const Body& body, const Points& x) {
 /// An element below this fraction of its rest volume is not constrained.
 constexpr double kCrushed = 0.1;
 /// A node carries its multiplier into the pressures only where its
-/// material's share of its elements, ¼ Σ φ_e V̄_e over ¼ Σ V̄_e, is at
-/// least this. A node with share s has a row of G M⁻¹ Gᵀ of order s against
-/// its neighbours' and a residual of order s, so its multiplier is of order
-/// 1/s of theirs: a fine correction of that step (its G column is of order
-/// s too), but summed over steps as a pressure it grows without bound
-/// (lattice nodes beside slivers of material, s down to 10⁻¹⁴ in the
-/// paper-resolution fluid drop, carried 10¹⁷ Pa, and a fluid on a ball run
-/// without restart points blew up at 0.21 s). The constraint itself stays:
-/// a node left unconstrained is flung by its neighbours' multipliers (a
-/// light node at the mass floor moved 2 m in one drift correction after a
-/// re-mesh, and the run blew up).
+/// material, ¼ Σ φ_e V̄_e, is at least this share of a full node's elements
+/// (¼ Σ V̄_e of the node that has the most, or of its own if more). A node
+/// with share s has a row of G M⁻¹ Gᵀ of order s against its neighbours'
+/// and a residual of order s, so its multiplier is of order 1/s of theirs:
+/// a fine correction of that step (its G column is of order s too), but
+/// summed over steps as a pressure it grows without bound (lattice nodes
+/// beside slivers of material, s down to 10⁻¹⁴ in the paper-resolution
+/// fluid drop, carried 10¹⁷ Pa, and a fluid on a ball run without restart
+/// points blew up at 0.21 s). A full node's, not the node's own elements':
+/// a node with few elements (the copies of a separated re-mesh, a node
+/// whose empty elements were left out) holds a sliver of material however
+/// full those few are (the fluid on the ball, separated, blew up at 0.21 s
+/// again while four elements a node had left, 3% full, carried). The
+/// constraint itself stays: a node left unconstrained is flung by its
+/// neighbours' multipliers (a light node at the mass floor moved 2 m in one
+/// drift correction after a re-mesh, and the run blew up).
 constexpr double kMinMaterialShare = 0.01;
 /// The most of a node's volume the drift correction restores in one step.
 constexpr double kMaxDrift = 0.1;
@@ -248,7 +253,8 @@ void VolumeProjection::carry(const Body& body, const Eigen::VectorXd& lambda, do
   const Index nn = body.num_nodes();
   if (pressure_.size() != nn) pressure_ = Eigen::VectorXd::Zero(nn);
   for (Index n = 0; n < nn; ++n)
-    if (node_material_[n] >= kMinMaterialShare * node_whole_[n]) pressure_[n] += scale * lambda[n];
+    if (node_material_[n] >= kMinMaterialShare * std::max(node_whole_[n], full_node_))
+      pressure_[n] += scale * lambda[n];
 }
 
 // y = M⁻¹ P Gᵀλ as move() (its store fused into the gather), then per
@@ -371,6 +377,7 @@ void VolumeProjection::prepare_anew(const Body& body, const Points& at_positions
   // The material's share of each node's elements, movable or not (a node
   // whose elements are crushed still holds them).
   quarter_node_sums(body.incidence, whole_, node_whole_);
+  full_node_ = nn > 0 ? node_whole_.maxCoeff() : 0.0;
   whole_.array() *= weight_.array();
   quarter_node_sums(body.incidence, whole_, node_material_);
   // A_ii = Σ_j |G_ij|² / m_j with G_ij = ¼ Σ_{e∋i,j} ∂V_e/∂x_j, gathered per

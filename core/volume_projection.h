@@ -179,6 +179,7 @@ class VolumeProjection {
   /// Per element W_e det Fp_e (then × φ_e); per node ¼ Σ_{e∋i} of each:
   /// the material's share of a node is node_material_ / node_whole_.
   Eigen::VectorXd whole_, node_whole_, node_material_;
+  double full_node_ = 0.0;  ///< the largest node_whole_: a node whose elements are all there
   Eigen::VectorXd weight_;  ///< per element, the share of it the constraints count (φ_e: its material)
   void weights(const Body& body);
   void weighted_volumes(const Body& body, const Points& positions);
