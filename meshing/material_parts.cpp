@@ -189,6 +189,14 @@ struct ElementClasses {
   /// (increasing), until they are moved to the pairs.
   std::vector<Index> triangles;
   [[nodiscard]] int count() const { return static_cast<int>(class_on_edge.size()); }
+  /// One part holding the element's m triangles and its inside corners (no
+  /// part if it has neither).
+  void one_part(int m, const std::array<bool, 4>& inside) {
+    const bool any = m > 0 || inside[0] || inside[1] || inside[2] || inside[3];
+    class_on_edge.assign(any ? 1 : 0, 1);
+    triangle_class.assign(static_cast<std::size_t>(m), 0);
+    for (std::size_t k = 0; k < 4; ++k) corner_class[k] = inside[k] ? 0 : -1;
+  }
 };
 
 struct Scratch {
@@ -295,14 +303,7 @@ void classify_element(const Corners& x, const std::array<Index, 4>& nodes, const
     }
     item_first[static_cast<std::size_t>(j + 1)] = next_item;
   }
-  if (out.degenerate) {
-    // One part: everything there is.
-    const bool any = m > 0 || inside[0] || inside[1] || inside[2] || inside[3];
-    if (any) out.class_on_edge.push_back(1);
-    for (int k = 0; k < 4; ++k)
-      out.corner_class[static_cast<std::size_t>(k)] = inside[static_cast<std::size_t>(k)] ? 0 : -1;
-    return;
-  }
+  if (out.degenerate) return out.one_part(m, inside);  // everything there is
   // Number the classes that hold a triangle or an inside interval, in
   // order of their first item.
   auto& label = scratch.label;
@@ -701,11 +702,7 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface,
                          !(inside[0] && inside[1] && inside[2] && inside[3]);
       if (!(m == 0 && mixed) && count_patches(x, surface, across, own, m, slack, scratch.sets) <= 1) {
         c.simple = true;
-        const bool any = m > 0 || inside[0] || inside[1] || inside[2] || inside[3];
-        c.class_on_edge.assign(any ? 1 : 0, 1);
-        c.triangle_class.assign(static_cast<std::size_t>(m), 0);
-        for (int k = 0; k < 4; ++k)
-          c.corner_class[static_cast<std::size_t>(k)] = inside[static_cast<std::size_t>(k)] ? 0 : -1;
+        c.one_part(m, inside);
       } else {
         candidates.assign(own, own + m);
         for (const Index f : neighbours[at(e)])
@@ -733,11 +730,7 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface,
         classify_element(x, nodes, inside, surface, across, c.triangles.data(), sides.data(), count, scratch, c);
         if (undecided && !c.degenerate) {
           c.degenerate = true;
-          const bool any = count > 0 || inside[0] || inside[1] || inside[2] || inside[3];
-          c.class_on_edge.assign(any ? 1 : 0, 1);
-          c.triangle_class.assign(static_cast<std::size_t>(count), 0);
-          for (int k = 0; k < 4; ++k)
-            c.corner_class[static_cast<std::size_t>(k)] = inside[static_cast<std::size_t>(k)] ? 0 : -1;
+          c.one_part(count, inside);
         }
         degenerate[at(e)] = c.degenerate ? 1 : 0;
       }
