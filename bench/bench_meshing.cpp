@@ -143,8 +143,9 @@ void BM_Transfer(benchmark::State& state) {
 BENCHMARK(BM_Transfer)->Apply(configure);
 
 /// The whole re-mesh of a deformed, moving body: new lattice mesh, transfer,
-/// exact masses, conservation, re-embedding.
-void BM_Remesh(benchmark::State& state) {
+/// exact masses, conservation, re-embedding; with `separate`, the copies per
+/// part of the material too (what a scene does by default).
+void remesh_benchmark(benchmark::State& state, bool separate) {
   const goo::TriangleMesh* mesh = model(static_cast<int>(state.range(0)));
   if (!mesh) return state.SkipWithError("assets missing: run scripts/fetch-assets");
   const double h = spacing_for(*mesh, 1000.0 * static_cast<double>(state.range(1)));
@@ -154,7 +155,7 @@ void BM_Remesh(benchmark::State& state) {
   goo::RemeshTimes times;
   for (auto _ : state) {
     goo::RemeshReport report;
-    const goo::MeshedBody next = goo::remesh(mb.body, surface, h, &report);
+    const goo::MeshedBody next = goo::remesh(mb.body, surface, h, &report, nullptr, nullptr, separate);
     tets = next.body.num_elements();
     times += report.times;
   }
@@ -165,8 +166,12 @@ void BM_Remesh(benchmark::State& state) {
   state.counters["transfer_ms"] = times.transfer * per;
   state.counters["masses_ms"] = times.masses * per;
   state.counters["conservation_ms"] = times.conservation * per;
+  if (separate) state.counters["separation_ms"] = times.separation * per;
 }
+void BM_Remesh(benchmark::State& state) { remesh_benchmark(state, false); }
 BENCHMARK(BM_Remesh)->Apply(configure);
+void BM_RemeshSeparated(benchmark::State& state) { remesh_benchmark(state, true); }
+BENCHMARK(BM_RemeshSeparated)->Apply(configure);
 
 /// The surface upkeep a re-mesh runs first (splits, collapses, flips, each
 /// refused where it would make the surface cross itself), on the deformed

@@ -47,7 +47,7 @@ struct RemeshSettings {
   UpkeepSettings upkeep_settings;
   /// Copy elements and nodes per part of the material, so that parts of a
   /// body closer than the spacing share no element (docs/lattice.md).
-  bool separate_parts = false;
+  bool separate_parts = true;
 };
 
 struct OutputSettings {

@@ -244,8 +244,9 @@ TEST(Scene, SelfCollisionsAreOnUnlessSwitchedOff) {
                                             "/objects/0/self_collisions must be an object"));
 }
 
-TEST(Scene, SeparatingTheMaterialsPartsIsOffUnlessSwitchedOn) {
-  EXPECT_FALSE(parse(with_object(kCube)).remesh.separate_parts);
+TEST(Scene, SeparatingTheMaterialsPartsIsOnUnlessSwitchedOff) {
+  EXPECT_TRUE(parse(with_object(kCube)).remesh.separate_parts);
+  EXPECT_FALSE(parse(with_object(kCube, R"("remesh": {"separate_parts": false},)")).remesh.separate_parts);
   EXPECT_TRUE(parse(with_object(kCube, R"("remesh": {"separate_parts": true},)")).remesh.separate_parts);
   EXPECT_TRUE(test::throws_error_containing([&] { parse(with_object(kCube, R"("remesh": {"separate_parts": 1},)")); },
                                             "/remesh/separate_parts must be"));
