@@ -66,7 +66,8 @@ struct RemeshReport {
 /// material and every node once per copy (virtual nodes, docs/lattice.md
 /// "Material parts"), so that material a lattice spacing apart shares no
 /// element and no node; the body then has the copies as its elements and
-/// nodes (`lattice_mesh` stays the plain one).
+/// nodes (`lattice_mesh` stays the plain one). A scene's bodies are meshed
+/// so unless `remesh.separate_parts` is false; here it is asked for.
 MeshedBody mesh_body(const TriangleMesh& surface, const Material& material, double h, bool separate = false,
                      SeparationReport* report = nullptr);
 
