@@ -104,7 +104,7 @@ SurfacePieces slice_surface(const LatticeMesh& lm, const TriangleMesh& surface) 
   const TetMesh& mesh = lm.mesh;
   const Index ne = mesh.num_elements();
   if (static_cast<Index>(lm.node_inside.size()) != mesh.num_nodes())
-    throw Error("clip_solid_to_elements: the lattice mesh has no inside flags for its nodes");
+    throw Error("slice_surface: the lattice mesh has no inside flags for its nodes");
   SurfacePieces out;
   out.apex = element_apexes(mesh, node_surface_distances(lm, surface));
   // Each triangle sliced along the lattice's planes (lattice_slicing.h) into

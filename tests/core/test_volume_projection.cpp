@@ -118,6 +118,28 @@ TEST(VolumeProjection, ThePressureForceItCarriesIsTheImpulseItAppliedReadAsAForc
   }
 }
 
+/// The pressures one projection carries from the perturbed box whose
+/// elements at node `corner` hold `fraction` of their volume in material
+/// (the others full); the projection must meet its tolerance there.
+Eigen::VectorXd carried_pressures(Perturbed& p, Index corner, double fraction) {
+  Body& body = p.body;
+  const double dt = 1e-3;
+  body.solid_fractions = Eigen::VectorXd::Ones(body.num_elements());
+  int at_corner = 0;
+  for (Index e = 0; e < body.num_elements(); ++e)
+    for (int k = 0; k < 4; ++k)
+      if (body.tets(e, k) == corner) body.solid_fractions[e] = fraction, ++at_corner;
+  EXPECT_GT(at_corner, 0);
+  VolumeProjection projection;
+  const VolumeProjectionStats stats = projection.project(body, p.start, {}, dt, 0.5 * dt);
+  EXPECT_GE(stats.newton_iterations, 1);
+  EXPECT_LE(stats.error, VolumeProjectionSettings{}.tolerance);
+  const Eigen::VectorXd pressure = projection.pressures();
+  EXPECT_EQ(pressure.size(), body.num_nodes());
+  EXPECT_TRUE(pressure.allFinite());
+  return pressure;
+}
+
 TEST(VolumeProjection, ANodeBesideASliverOfMaterialCarriesNoPressure) {
   // A corner node whose elements hold 10⁻⁹ of their volume in material (a
   // lattice node beside a sliver): its row of G M⁻¹ Gᵀ is of order 10⁻⁹ of
@@ -125,33 +147,14 @@ TEST(VolumeProjection, ANodeBesideASliverOfMaterialCarriesNoPressure) {
   // its constraint (the projection meets the tolerance), but carries no
   // pressure, and the others carry those of the box filled everywhere to
   // within the share's bound (kMinMaterialShare = 1%: 100×).
-  const double dt = 1e-3;
-  double filled = 0.0;
-  for (const double sliver : {1.0, 1e-9}) {
-    Perturbed p = perturbed_box(0.05, 37);
-    Body& body = p.body;
-    const Index corner = 0;
-    body.solid_fractions = Eigen::VectorXd::Ones(body.num_elements());
-    int sliver_elements = 0;
-    for (Index e = 0; e < body.num_elements(); ++e)
-      for (int k = 0; k < 4; ++k)
-        if (body.tets(e, k) == corner) body.solid_fractions[e] = sliver, ++sliver_elements;
-    ASSERT_GT(sliver_elements, 0);
-    VolumeProjection projection;
-    const VolumeProjectionStats stats = projection.project(body, p.start, {}, dt, 0.5 * dt);
-    ASSERT_GE(stats.newton_iterations, 1);
-    EXPECT_LE(stats.error, VolumeProjectionSettings{}.tolerance);
-    const Eigen::VectorXd& pressure = projection.pressures();
-    ASSERT_EQ(pressure.size(), body.num_nodes());
-    EXPECT_TRUE(pressure.allFinite());
-    if (sliver == 1.0) {
-      filled = pressure.cwiseAbs().maxCoeff();
-      EXPECT_NE(pressure[corner], 0.0);
-    } else {
-      EXPECT_EQ(pressure[corner], 0.0);
-      EXPECT_LE(pressure.cwiseAbs().maxCoeff(), 100.0 * filled);
-    }
-  }
+  const Index corner = 0;
+  Perturbed full = perturbed_box(0.05, 37), sliver = perturbed_box(0.05, 37);
+  const Eigen::VectorXd filled = carried_pressures(full, corner, 1.0);
+  const Eigen::VectorXd pressure = carried_pressures(sliver, corner, 1e-9);
+  ASSERT_EQ(pressure.size(), filled.size());
+  EXPECT_NE(filled[corner], 0.0);
+  EXPECT_EQ(pressure[corner], 0.0);
+  EXPECT_LE(pressure.cwiseAbs().maxCoeff(), 100.0 * filled.cwiseAbs().maxCoeff());
 }
 
 TEST(VolumeProjection, ANodeWithFewElementsCarriesOnlyWhatAFullNodeWould) {
@@ -163,27 +166,16 @@ TEST(VolumeProjection, ANodeWithFewElementsCarriesOnlyWhatAFullNodeWould) {
   // least 1%, but s × (its elements' volume / a full node's) is below: it
   // carries no pressure. (A fluid sliding off a ball, separated, blew up at
   // 0.21 s while such a node carried.)
-  const double dt = 1e-3;
   Perturbed p = perturbed_box(0.05, 37);
-  Body& body = p.body;
   const Index corner = 0;
-  Eigen::VectorXd whole = Eigen::VectorXd::Zero(body.num_nodes());
-  for (Index e = 0; e < body.num_elements(); ++e)
-    for (int k = 0; k < 4; ++k) whole[body.tets(e, k)] += 0.25 * body.rest_volumes[e];
+  Eigen::VectorXd whole = Eigen::VectorXd::Zero(p.body.num_nodes());
+  for (Index e = 0; e < p.body.num_elements(); ++e)
+    for (int k = 0; k < 4; ++k) whole[p.body.tets(e, k)] += 0.25 * p.body.rest_volumes[e];
   const double ratio = whole[corner] / whole.maxCoeff();
   ASSERT_LT(ratio, 0.5) << "the node must have fewer elements than a full one";
-  const double share = 0.01 / std::sqrt(ratio);  // ≥ 1% of its own; share × ratio < 1%
-  body.solid_fractions = Eigen::VectorXd::Ones(body.num_elements());
-  for (Index e = 0; e < body.num_elements(); ++e)
-    for (int k = 0; k < 4; ++k)
-      if (body.tets(e, k) == corner) body.solid_fractions[e] = share;
-  VolumeProjection projection;
-  const VolumeProjectionStats stats = projection.project(body, p.start, {}, dt, 0.5 * dt);
-  ASSERT_GE(stats.newton_iterations, 1);
-  EXPECT_LE(stats.error, VolumeProjectionSettings{}.tolerance);
-  const Eigen::VectorXd& pressure = projection.pressures();
-  ASSERT_EQ(pressure.size(), body.num_nodes());
-  EXPECT_TRUE(pressure.allFinite());
+  // ≥ 1% of its own elements; × ratio, < 1% of a full node's.
+  const Eigen::VectorXd pressure = carried_pressures(p, corner, 0.01 / std::sqrt(ratio));
+  ASSERT_EQ(pressure.size(), p.body.num_nodes());
   EXPECT_EQ(pressure[corner], 0.0);
   EXPECT_NE(pressure.cwiseAbs().maxCoeff(), 0.0);
 }
