@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cstdint>
-#include <unordered_map>
 
 #include "core/parallel.h"
 #include "core/radix_sort.h"
@@ -24,18 +23,7 @@ SurfaceTopology SurfaceTopology::build(const Triangles& triangles, Index num_ver
   for (Index t = 0; t < nt; ++t)
     for (int k = 0; k < 3; ++k) out.corners[at(fill[at(triangles(t, k))]++)] = 3 * t + k;
 
-  // Edges: the directed edge (a → b) of one triangle meets (b → a) of its neighbour.
-  out.across.setConstant(nt, 3, -1);
-  std::unordered_map<std::int64_t, Index> directed;
-  directed.reserve(at(3 * nt));
-  auto key = [&](Index a, Index b) { return static_cast<std::int64_t>(a) * num_vertices + b; };
-  for (Index t = 0; t < nt; ++t)
-    for (int k = 0; k < 3; ++k) directed.emplace(key(triangles(t, k), triangles(t, (k + 1) % 3)), 3 * t + k);
-  for (Index t = 0; t < nt; ++t)
-    for (int k = 0; k < 3; ++k) {
-      const auto it = directed.find(key(triangles(t, (k + 1) % 3), triangles(t, k)));
-      if (it != directed.end()) out.across(t, k) = it->second / 3;
-    }
+  out.across = triangles_across(triangles);
 
   out.neighbour_offsets.assign(at(num_vertices) + 1, 0);
   std::vector<Index> around;
@@ -68,6 +56,22 @@ std::vector<std::array<Index, 4>> sorted_sides(const Triangles& triangles) {
     return (static_cast<std::uint64_t>(side[0]) << 32) | static_cast<std::uint64_t>(side[1]);
   });
   return sides;
+}
+
+Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor> triangles_across(const Triangles& triangles) {
+  Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor> across =
+      Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor>::Constant(triangles.rows(), 3, -1);
+  const std::vector<std::array<Index, 4>> sides = sorted_sides(triangles);
+  for (std::size_t i = 0; i < sides.size();) {
+    std::size_t j = i + 1;
+    while (j < sides.size() && sides[j][0] == sides[i][0] && sides[j][1] == sides[i][1]) ++j;
+    if (j == i + 2) {
+      across(sides[i][2], sides[i][3]) = sides[i + 1][2];
+      across(sides[i + 1][2], sides[i + 1][3]) = sides[i][2];
+    }
+    i = j;
+  }
+  return across;
 }
 
 }  // namespace goo

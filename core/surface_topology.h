@@ -13,7 +13,7 @@ struct SurfaceTopology {
   /// this fixed order, so they are bitwise identical for any thread count.
   std::vector<Index> corner_offsets, corners;
   /// The triangle across edge k (from corner k to corner k + 1) of each
-  /// triangle; −1 on a boundary edge.
+  /// triangle (triangles_across); −1 on a boundary or non-manifold edge.
   Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor> across;
   /// Each vertex's neighbours (vertices sharing an edge), increasing.
   std::vector<Index> neighbour_offsets, neighbours;
@@ -28,5 +28,11 @@ struct SurfaceTopology {
 /// Filled in parallel and radix sorted by edge (stable over the fill's
 /// order): the same array for any thread count.
 std::vector<std::array<Index, 4>> sorted_sides(const Triangles& triangles);
+
+/// The triangle across edge k (from corner k to corner k + 1) of each
+/// triangle, from sorted_sides: an edge met by exactly two triangles joins
+/// them; −1 on an edge met once (a boundary) or more than twice (not
+/// manifold, where no one neighbour is the right one).
+Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor> triangles_across(const Triangles& triangles);
 
 }  // namespace goo

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <tbb/parallel_sort.h>
 
 #include <array>
 #include <limits>
@@ -112,7 +113,8 @@ Tets face_neighbours(const Tets& tets) {
       std::sort(f.begin(), f.end());
       faces.emplace_back(f, 4 * e + k);
     }
-  std::sort(faces.begin(), faces.end());
+  // Keys are distinct (4 e + k), so the order is the same for any thread count.
+  tbb::parallel_sort(faces.begin(), faces.end());
   for (std::size_t i = 0; i + 1 < faces.size(); ++i)
     if (faces[i].first == faces[i + 1].first) {
       const Index a = faces[i].second, b = faces[i + 1].second;

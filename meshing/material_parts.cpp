@@ -2,7 +2,6 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cmath>
@@ -12,6 +11,7 @@
 #include "core/error.h"
 #include "core/parallel.h"
 #include "core/surface_topology.h"
+#include "core/tet_mesh.h"
 #include "core/union_find.h"
 #include "meshing/convex_clip.h"
 #include "meshing/exact_mass.h"
@@ -539,35 +539,17 @@ void join_across_face(const LatticeMesh& lm, const TriangleMesh& surface, const 
   join.parts.erase(std::unique(join.parts.begin(), join.parts.end()), join.parts.end());
 }
 
-/// Every face shared by two elements (each face as its sorted nodes,
-/// sorted: equal neighbours are the two sides of one face), in a fixed
-/// order, and each element's neighbour across each face (−1: none).
-std::vector<FaceJoin> shared_faces(const TetMesh& mesh, std::vector<std::array<Index, 4>>& neighbours) {
-  const Index ne = mesh.num_elements();
-  struct Side {
-    std::array<Index, 3> nodes;
-    Index element;
-    int opposite;
-    bool operator<(const Side& o) const { return nodes < o.nodes || (nodes == o.nodes && element < o.element); }
-  };
-  std::vector<Side> sides;
-  sides.reserve(4 * at(ne));
-  for (Index e = 0; e < ne; ++e)
-    for (int k = 0; k < 4; ++k) {
-      std::array<Index, 3> n = {mesh.tets(e, kTetFaces[k][0]), mesh.tets(e, kTetFaces[k][1]),
-                                mesh.tets(e, kTetFaces[k][2])};
-      std::sort(n.begin(), n.end());
-      sides.push_back({n, e, k});
-    }
-  tbb::parallel_sort(sides.begin(), sides.end());
-  neighbours.assign(at(ne), {-1, -1, -1, -1});
+/// Every face shared by two elements, once (from the lower element), in
+/// order of element and face.
+std::vector<FaceJoin> shared_faces(const Tets& neighbours) {
   std::vector<FaceJoin> joins;
-  for (std::size_t i = 0; i + 1 < sides.size(); ++i)
-    if (sides[i].nodes == sides[i + 1].nodes) {
-      const Side &a = sides[i], &b = sides[i + 1];
-      joins.push_back({{a.element, b.element}, {a.opposite, b.opposite}, {}});
-      neighbours[at(a.element)][static_cast<std::size_t>(a.opposite)] = b.element;
-      neighbours[at(b.element)][static_cast<std::size_t>(b.opposite)] = a.element;
+  for (Index e = 0; e < neighbours.rows(); ++e)
+    for (int k = 0; k < 4; ++k) {
+      const Index f = neighbours(e, k);
+      if (f <= e) continue;
+      int back = 0;  // the face of f opposite the corner f does not share with e
+      while (neighbours(f, back) != e) ++back;
+      joins.push_back({{e, f}, {k, back}, {}});
     }
   return joins;
 }
@@ -642,20 +624,7 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface,
   const BccLattice& lattice = lm.lattice;
   // The triangle across each edge (−1 where an edge does not have exactly
   // two: a surface that is not closed joins nothing there).
-  Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor> across =
-      Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor>::Constant(surface.num_triangles(), 3, -1);
-  {
-    const std::vector<std::array<Index, 4>> sides = sorted_sides(surface.triangles);
-    for (std::size_t i = 0; i < sides.size();) {
-      std::size_t j = i + 1;
-      while (j < sides.size() && sides[j][0] == sides[i][0] && sides[j][1] == sides[i][1]) ++j;
-      if (j == i + 2) {
-        across(sides[i][2], sides[i][3]) = sides[i + 1][2];
-        across(sides[i + 1][2], sides[i + 1][3]) = sides[i][2];
-      }
-      i = j;
-    }
-  }
+  const Eigen::Matrix<Index, Eigen::Dynamic, 3, Eigen::RowMajor> across = triangles_across(surface.triangles);
   const double slack = 1e-9 * lattice.spacing();
   // 1. The surface's pieces in each element, with their volume shares from
   // the element's apex (the exact masses' slicing): the pairs of the
@@ -668,8 +637,8 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface,
   const std::vector<ConeIntegrals>& slice_integrals = pieces.integrals;
 
   // 2. The faces shared by two elements.
-  std::vector<std::array<Index, 4>> neighbours;
-  std::vector<FaceJoin> joins = shared_faces(mesh, neighbours);
+  const Tets neighbours = face_neighbours(mesh.tets);
+  std::vector<FaceJoin> joins = shared_faces(neighbours);
 
   // 3. Each element's candidate parts. An element whose triangles form one
   // patch, by a test that joins two only where their shared edge passes a
@@ -705,9 +674,10 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface,
         c.one_part(m, inside);
       } else {
         candidates.assign(own, own + m);
-        for (const Index f : neighbours[at(e)])
-          if (f >= 0) candidates.insert(candidates.end(), slice_triangle.begin() + slice_first[at(f)],
-                                        slice_triangle.begin() + slice_first[at(f) + 1]);
+        for (int k = 0; k < 4; ++k)
+          if (const Index f = neighbours(e, k); f >= 0)
+            candidates.insert(candidates.end(), slice_triangle.begin() + slice_first[at(f)],
+                              slice_triangle.begin() + slice_first[at(f) + 1]);
         std::sort(candidates.begin(), candidates.end());
         candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
         c.triangles.clear();
