@@ -878,7 +878,9 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   // the share of that the round gave it (all impulses together), in impact order.
   struct Progress {
     std::pair<std::uint8_t, std::array<Index, 4>> pair;
-    double gained;
+    double gained;  // the share of its lack the round gave it
+    double lack;    // what it lacks after the round
+    double spare;   // how much its normal displacement may fall short of the target unreported
   };
   std::vector<Progress> progress;
   const double target = parameters.target_scale * kSeparationFraction * thickness;
@@ -897,12 +899,17 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
     progress.clear();
     for (std::size_t i = 0; i < impacts.size(); ++i) {
       const Pair& p = candidates_[impacts[i].pair];
-      double gained = 0.0;
+      // A pair that starts at `start` is reported when it comes within
+      // `keep` (detect): it may approach by start − keep unreported.
+      const double start = ccd::closest(static_cast<PairKind>(p.kind), gather(xs0, p.vertices)).distance;
+      const double keep = start > thickness ? thickness : 0.5 * start;
+      Progress q{{p.kind, p.vertices}, 0.0, 0.0, target + (start - keep)};
       if (approaches[i]) {
-        const double before = approaches[i]->along(d_before), lack = target - before;
-        if (lack > 0.0) gained = (approaches[i]->along(d) - before) / lack;
+        const double before = approaches[i]->along(d_before), after = approaches[i]->along(d);
+        if (target - before > 0.0) q.gained = (after - before) / (target - before);
+        q.lack = target - after;
       }
-      progress.push_back({{p.kind, p.vertices}, gained});
+      progress.push_back(q);
     }
     // Measured again: pairs of a vertex whose element has a node that moved,
     // and the impacts' own (an impulse that could not act leaves its pair).
@@ -916,20 +923,25 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
       for (const Index v : candidates_[impact.pair].vertices) again[at(v)] = 1;
     impacts = redetect(nullptr, &again, &moved);
     // A round gives each pair a share g of what it lacks; R more rounds at
-    // that rate leave (1 − g)^R of it. When every impact left is a pair of
-    // this round that the rounds left could not even halve the lack of
-    // ((1 − g)^R > 1/2: pairs of points hung on shared nodes, whose impulses
-    // nearly cancel, are cut to a few percent each round), more rounds only
-    // put off the fail-safe: it takes them now, after one detection rather
-    // than R. (Rounds are for pairs they resolve; what they do not resolve
-    // the rigid zones do, and the step ends with no crossing either way.)
+    // that rate leave (1 − g)^R of what it lacks now. The pair stops being
+    // reported once its normal displacement falls short of the target by
+    // no more than its spare (the approach its start distance allows). When
+    // every impact left is a pair of this round that the rounds left would
+    // not bring within its spare, more rounds only put off the fail-safe:
+    // it takes them now, after one detection rather than R. Pairs of points
+    // hung on shared nodes, whose impulses nearly cancel, are cut to a few
+    // percent a round (apply_impulse), and on a fold sitting at the
+    // thickness they meet this every step. (A prediction, not a bound: the
+    // rounds resolve what they can, the rigid zones the rest, and the step
+    // ends with no crossing either way.)
     const int left = parameters.max_rounds - round - 1;
     const bool stalled = std::all_of(impacts.begin(), impacts.end(), [&](const Impact& impact) {
       const Pair& p = candidates_[impact.pair];
       const std::pair<std::uint8_t, std::array<Index, 4>> key{p.kind, p.vertices};
       const auto it = std::lower_bound(progress.begin(), progress.end(), key,
                                        [](const Progress& a, const auto& b) { return a.pair < b; });
-      return it != progress.end() && it->pair == key && std::pow(1.0 - std::clamp(it->gained, 0.0, 1.0), left) > 0.5;
+      return it != progress.end() && it->pair == key &&
+             std::pow(1.0 - std::clamp(it->gained, 0.0, 1.0), left) * it->lack > it->spare;
     });
     if (stalled) break;
   }
