@@ -285,22 +285,28 @@ struct FlattenedSheets {
   }
 };
 
+/// The sheets meet as given; the stage keeps every pair at least the
+/// thickness apart all step (none left reported, ccd.h) and the momentum.
+SelfCollisionStats resolve_flattened(FlattenedSheets& c, double thickness) {
+  EXPECT_LT(c.gap_at(c.d, FlattenedSheets::flat), 1e-12);
+  const Points given = c.d;
+  SelfCollisions stage;
+  const SelfCollisionStats stats = stage.resolve(c.body, c.x0, c.d, {}, {thickness, 0.0, 8});
+  EXPECT_GE(c.least_gap(c.d), thickness);
+  EXPECT_LT(momentum_change(c.body, given, c.d).norm(), 1e-12 * momentum_scale(c.body, given));
+  return stats;
+}
+
 TEST(SelfCollisions, SheetsInAnElementFlattenedMidStepAreKeptApart) {
   // 1 mm apart: such an element's own pairs are measured, and the step is
   // made safe. The impulses, all on the element's four nodes, are cut
   // (kMaxNodeMove) but together give each pair a good share of what it
   // lacks each round: the rounds resolve them without the fail-safe.
-  const double thickness = 1e-4;
   FlattenedSheets c(1e-3);
-  ASSERT_LT(c.gap_at(c.d, FlattenedSheets::flat), 1e-12);  // the sheets meet as given
-  const Points given = c.d;
-  SelfCollisions stage;
-  const SelfCollisionStats stats = stage.resolve(c.body, c.x0, c.d, {}, {thickness, 0.0, 8});
+  const SelfCollisionStats stats = resolve_flattened(c, 1e-4);
   EXPECT_GT(stats.candidates, 0);
   EXPECT_GT(stats.impacts, 0);
   EXPECT_EQ(stats.zone_rounds, 0);
-  EXPECT_GE(c.least_gap(c.d), thickness);  // no pair left reported: none came within the thickness (ccd.h)
-  EXPECT_LT(momentum_change(c.body, given, c.d).norm(), 1e-12 * momentum_scale(c.body, given));
 }
 
 TEST(SelfCollisions, RoundsThatCannotResolveTheirPairsHandThemToTheFailSafeAtOnce) {
@@ -309,17 +315,11 @@ TEST(SelfCollisions, RoundsThatCannotResolveTheirPairsHandThemToTheFailSafeAtOnc
   // a few percent of what it lacks a round, and eight rounds would leave
   // most of it. The rounds stop as soon as every pair left is such a pair,
   // and the rigid zones keep the sheets apart.
-  const double thickness = 1e-5;
   FlattenedSheets c(1e-4);
-  ASSERT_LT(c.gap_at(c.d, FlattenedSheets::flat), 1e-12);
-  const Points given = c.d;
-  SelfCollisions stage;
-  const SelfCollisionStats stats = stage.resolve(c.body, c.x0, c.d, {}, {thickness, 0.0, 8});
+  const SelfCollisionStats stats = resolve_flattened(c, 1e-5);
   EXPECT_GT(stats.impacts, 0);
   EXPECT_LE(stats.rounds, 2);
   EXPECT_GT(stats.zone_rounds, 0);
-  EXPECT_GE(c.least_gap(c.d), thickness);
-  EXPECT_LT(momentum_change(c.body, given, c.d).norm(), 1e-12 * momentum_scale(c.body, given));
 }
 
 TEST(StarSpread, NoneForAnAffineMotionAndTheClosedFormOtherwise) {
