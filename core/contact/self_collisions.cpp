@@ -97,6 +97,11 @@ std::optional<Approach> approach_of(const Body& body, PairKind kind, const std::
   return Approach{n.normalized(), node_weights(body, vertices, closest.coefficients)};
 }
 
+/// How far apart a pair that starts `start` apart is kept: the thickness,
+/// or half its gap if it starts closer (continuous detection reports it
+/// when it comes nearer).
+double kept_apart(double start, double thickness) { return start > thickness ? thickness : 0.5 * start; }
+
 ccd::Points4 gather(const Points& xs, const std::array<Index, 4>& v) {
   return {xs.row(v[0]).transpose(), xs.row(v[1]).transpose(), xs.row(v[2]).transpose(), xs.row(v[3]).transpose()};
 }
@@ -724,7 +729,7 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
                           continue;
                         }
                         if (start < thickness) found.close.emplace_back(i, start);
-                        const double keep = start > thickness ? thickness : 0.5 * start;
+                        const double keep = kept_apart(start, thickness);
                         double clearance = 0.0;
                         if (const auto t = ccd::time_of_impact(kind, x, gather(ds, p.vertices), keep, &clearance))
                           found.impacts.push_back({i, *t});
@@ -874,8 +879,8 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
 
   // Impulse rounds: each impact stops the pair's approach where CCD found it.
   std::vector<std::uint8_t> moved(at(body.num_nodes())), again(at(body.embedding.num_vertices()));
-  // Each impact's pair, what it lacked of the target before the round, and
-  // the share of that the round gave it (all impulses together), in impact order.
+  // How the round moved each impact's pair (all its impulses together), in
+  // impact order.
   struct Progress {
     std::pair<std::uint8_t, std::array<Index, 4>> pair;
     double gained;  // the share of its lack the round gave it
@@ -902,7 +907,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
       // A pair that starts at `start` is reported when it comes within
       // `keep` (detect): it may approach by start − keep unreported.
       const double start = ccd::closest(static_cast<PairKind>(p.kind), gather(xs0, p.vertices)).distance;
-      const double keep = start > thickness ? thickness : 0.5 * start;
+      const double keep = kept_apart(start, thickness);
       Progress q{{p.kind, p.vertices}, 0.0, 0.0, target + (start - keep)};
       if (approaches[i]) {
         const double before = approaches[i]->along(d_before), after = approaches[i]->along(d);
