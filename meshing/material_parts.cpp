@@ -1,5 +1,6 @@
 #include "meshing/material_parts.h"
 
+#include <fmt/format.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -540,7 +541,7 @@ void join_across_face(const LatticeMesh& lm, const TriangleMesh& surface, const 
 }
 
 /// Every face shared by two elements, once (from the lower element), in
-/// order of element and face.
+/// order of element and face. Throws where a face has more than two.
 std::vector<FaceJoin> shared_faces(const Tets& neighbours) {
   std::vector<FaceJoin> joins;
   for (Index e = 0; e < neighbours.rows(); ++e)
@@ -548,7 +549,11 @@ std::vector<FaceJoin> shared_faces(const Tets& neighbours) {
       const Index f = neighbours(e, k);
       if (f <= e) continue;
       int back = 0;  // the face of f opposite the corner f does not share with e
-      while (neighbours(f, back) != e) ++back;
+      while (back < 4 && neighbours(f, back) != e) ++back;
+      if (back == 4)  // face_neighbours pairs a face's sides two by two: a third side breaks the pairing
+        throw Error(fmt::format("material_parts: a face of element {} is shared by more than two elements "
+                                "(a lattice mesh is conforming)",
+                                e));
       joins.push_back({{e, f}, {k, back}, {}});
     }
   return joins;

@@ -1,3 +1,4 @@
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
@@ -5,9 +6,11 @@
 #include <cmath>
 #include <vector>
 
+#include "core/error.h"
 #include "core/primitives.h"
 #include "core/surface_check.h"
 #include "core/surface_geometry.h"
+#include "core/tet_mesh.h"
 #include "core/union_find.h"
 #include "meshing/exact_mass.h"
 #include "meshing/lattice_slicing.h"
@@ -319,6 +322,28 @@ TEST(MaterialParts, ABubbleIsPartOfTheMaterialAroundIt) {
                  : 0;
   }
   EXPECT_EQ(holed, 1);  // the element holding the bubble: all corners inside, some air
+}
+
+// A mesh that is not conforming (an element given twice: its faces are
+// each in three elements) is refused with an error, not walked past.
+TEST(MaterialParts, AFaceInThreeElementsIsAnError) {
+  const double h = 0.2;
+  const TriangleMesh surface = moved(make_sphere(0.5, 24), tilt(0.3), {0.013, -0.021, 0.007});
+  LatticeMesh lm = build_lattice_mesh(surface, h);
+  const Index ne = lm.mesh.num_elements();
+  Index inner = 0;  // an element with a neighbour across every face
+  const Tets neighbours = face_neighbours(lm.mesh.tets);
+  while (inner < ne && (neighbours.row(inner).array() < 0).any()) ++inner;
+  ASSERT_LT(inner, ne);
+  lm.mesh.tets.conservativeResize(ne + 1, 4);
+  lm.mesh.tets.row(ne) = lm.mesh.tets.row(inner);
+  lm.tet_keys.push_back(lm.tet_keys[at(inner)]);
+  try {
+    (void)material_parts(lm, surface);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& error) {
+    EXPECT_THAT(error.what(), ::testing::HasSubstr("shared by more than two elements"));
+  }
 }
 
 // The same parts for any number of threads.
