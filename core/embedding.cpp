@@ -22,13 +22,18 @@ Points Embedding::surface_positions(const Tets& tets, const Points& x) const {
   const Index nv = num_vertices();
   Points out(nv, 3);
   tbb::parallel_for(tbb::blocked_range<Index>(0, nv, 4 * kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
-    for (Index v = r.begin(); v != r.end(); ++v) {
-      Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
-      for (int k = 0; k < 4; ++k) p += bary(v, k) * x.row(tets(parent[at(v)], k));
-      out.row(v) = p;
-    }
+    for (Index v = r.begin(); v != r.end(); ++v) out.row(v) = surface_position(tets, x, v);
   });
   return out;
+}
+
+void Embedding::update_surface_positions(const Tets& tets, const Points& x, const std::vector<Index>& vertices,
+                                         Points& out) const {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertices.size(), 4 * kParallelGrain),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i)
+                        out.row(vertices[i]) = surface_position(tets, x, vertices[i]);
+                    });
 }
 
 void reembed(Embedding& embedding, const Tets& tets, const Tets& neighbours, const Points& x, const Points& targets,

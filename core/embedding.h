@@ -17,6 +17,17 @@ struct Embedding {
   [[nodiscard]] Eigen::SparseMatrix<double, Eigen::RowMajor> operator_matrix(const TetMesh& mesh) const;
   /// x_s = Σ b_i x_i over each vertex's parent (#V×3).
   [[nodiscard]] Points surface_positions(const Tets& tets, const Points& node_positions) const;
+  /// The same for the listed vertices only: their rows of `out` (#V×3)
+  /// set to what surface_positions gives them, to the bit; the others kept.
+  void update_surface_positions(const Tets& tets, const Points& node_positions, const std::vector<Index>& vertices,
+                                Points& out) const;
+  /// x_s of vertex v.
+  [[nodiscard]] Eigen::RowVector3d surface_position(const Tets& tets, const Points& x, Index v) const {
+    Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+    const Index e = parent[static_cast<std::size_t>(v)];
+    for (int k = 0; k < 4; ++k) p += bary(v, k) * x.row(tets(e, k));
+    return p;
+  }
 };
 
 /// Moves each surface vertex to `targets` (#V×3) and finds its new parent

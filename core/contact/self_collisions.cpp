@@ -97,6 +97,49 @@ std::optional<Approach> approach_of(const Body& body, PairKind kind, const std::
   return Approach{n.normalized(), node_weights(body, vertices, closest.coefficients)};
 }
 
+/// One impulse bringing a pair's relative normal displacement over the
+/// step up to `target` (m), along its approach (the line of its closest
+/// points where the impulse acts), with friction. Returns whether it acted.
+bool push_apart(const Body& body, const std::optional<Approach>& approach, Points& d,
+                const std::vector<std::uint8_t>& fixed, double target, double friction) {
+  if (!approach) return false;  // touching: no direction to push along
+  const Vec3& n = approach->n;
+  const NodeWeights& w = approach->w;
+  Vec3 u = Vec3::Zero();
+  double K = 0.0;
+  std::array<double, 16> inverse_mass{};
+  for (std::size_t k = 0; k < std::size_t(w.size); ++k) {
+    const Index node = w.node[k];
+    inverse_mass[k] = (!fixed.empty() && fixed[at(node)]) ? 0.0 : 1.0 / body.masses[node];
+    u += w.c[k] * d.row(node).transpose();
+    K += w.c[k] * w.c[k] * inverse_mass[k];
+  }
+  const double un = u.dot(n);
+  if (un >= target || !(K > 0.0)) return false;
+  // Inelastic normal impulse (the relative normal displacement becomes the
+  // target), Coulomb friction bounded by it.
+  Vec3 change = (target - un) / K * n;
+  const Vec3 ut = u - un * n;
+  const double slide = ut.norm();
+  if (slide > 0.0) change -= std::min(slide, friction * (target - un)) / K * (ut / slide);
+  // Node k moves by c_k/m_k × the impulse. Two sides whose points lie in
+  // elements sharing nodes nearly cancel there (small K), and a light node
+  // (a lattice node outside the material, at the mass floor) with a small
+  // weight is cheap to move: the impulse would send it far for a tiny
+  // change at the pair. No node moves more than kMaxNodeMove × the change
+  // the impulse makes at the pair (K × change); the impulse is scaled down,
+  // both sides alike (momentum kept), and what is left of the approach goes
+  // to the next round or to the rigid zones.
+  double largest = 0.0;
+  for (std::size_t k = 0; k < std::size_t(w.size); ++k)
+    largest = std::max(largest, std::abs(w.c[k]) * inverse_mass[k]);
+  const double allowed = kMaxNodeMove * K;
+  if (largest > allowed) change *= allowed / largest;
+  for (std::size_t k = 0; k < std::size_t(w.size); ++k)
+    d.row(w.node[k]) += (w.c[k] * inverse_mass[k] * change).transpose();
+  return true;
+}
+
 /// How far apart a pair that starts `start` apart is kept: the thickness,
 /// or half its gap if it starts closer (continuous detection reports it
 /// when it comes nearer).
@@ -117,6 +160,14 @@ double reach(PairKind kind, const std::array<Index, 4>& v, const std::vector<dou
     side = std::max(side, by[at(v[k])]);
   }
   return std::sqrt(3.0) * (a + b);
+}
+
+/// f(i) for i in [0, count), in parallel (each i writes only its own).
+template <class F>
+void for_each_in(Index count, F&& f) {
+  tbb::parallel_for(tbb::blocked_range<Index>(0, count, 4 * kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    for (Index i = r.begin(); i != r.end(); ++i) f(i);
+  });
 }
 
 Box3 grown(Box3 b, double by) {
@@ -440,14 +491,18 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const P
   vb.resize(at(nv));
   tb.resize(at(nt));
   eb.resize(edges_.size());
-  for (Index v = 0; v < nv; ++v) {
-    // Grown by half the reporting distance too: boxes that stay apart keep
-    // their primitives more than 2δ apart while the list holds.
+  // Grown by half the reporting distance too: boxes that stay apart keep
+  // their primitives more than 2δ apart while the list holds.
+  for_each_in(nv, [&](Index v) {
     vb[at(v)] = grown(Box3(xs0.row(v).transpose(), xs0.row(v).transpose()),
                       reach_margin_[at(v)] + 0.5 * kReported * thickness);
-  }
-  for (Index t = 0; t < nt; ++t) tb[at(t)] = Box3(vb[at(tris(t, 0))]).extend(vb[at(tris(t, 1))]).extend(vb[at(tris(t, 2))]);
-  for (std::size_t e = 0; e < edges_.size(); ++e) eb[e] = Box3(vb[at(edges_[e][0])]).extend(vb[at(edges_[e][1])]);
+  });
+  for_each_in(nt, [&](Index t) {
+    tb[at(t)] = Box3(vb[at(tris(t, 0))]).extend(vb[at(tris(t, 1))]).extend(vb[at(tris(t, 2))]);
+  });
+  for_each_in(static_cast<Index>(edges_.size()), [&](Index e) {
+    eb[at(e)] = Box3(vb[at(edges_[at(e)][0])]).extend(vb[at(edges_[at(e)][1])]);
+  });
   list_positions_ = xs0;
   list_parents_ = body.embedding.parent;
   list_valid_ = true;
@@ -463,11 +518,11 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const P
   // Triangles with all three corners in one element share that element as
   // their group: two of one group hold only pairs within it (left out below).
   std::vector<Index> element_of(at(nt));
-  for (Index t = 0; t < nt; ++t) {
+  for_each_in(nt, [&](Index t) {
     const Index e = body.embedding.parent[at(tris(t, 0))];
     element_of[at(t)] =
         body.embedding.parent[at(tris(t, 1))] == e && body.embedding.parent[at(tris(t, 2))] == e ? e : -1;
-  }
+  });
   // Triangles of one calm star's group hold pairs that cannot touch while
   // it stays calm (CalmStars): left out too, listed when it stops.
   stars_.update_surface(body, element_of);
@@ -488,6 +543,7 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const P
   clearance_.assign(candidates_.size(), -std::numeric_limits<double>::infinity());
   changed_at_.resize(candidates_.size());
   list_size_ = candidates_.size();
+  index_valid_ = false;
   local_.assign(at(body.num_elements()), 0);
   return true;
 }
@@ -654,31 +710,46 @@ void SelfCollisions::add_local_pairs(const Body& body, const Points& xs0, const 
 std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, const Points& xs0, const Points& ds,
                                                            double thickness, const std::vector<Index>* zone,
                                                            const std::vector<std::uint8_t>* only,
+                                                           const std::vector<Index>* changed,
                                                            SelfCollisionStats& stats) {
   // How far each vertex's displacement has changed since the step's first
   // detection, summed over detections (a bound on its change since any of them).
   const Index nv = body.embedding.num_vertices();
+  auto track = [&](Index v) {
+    changed_[at(v)] += (ds.row(v) - ds_last_.row(v)).cwiseAbs().maxCoeff();
+    ds_last_.row(v) = ds.row(v);
+  };
   if (changed_.size() != at(nv) || ds_last_.rows() != nv) {
     changed_.assign(at(nv), 0.0);
+    ds_last_ = ds;
+  } else if (changed) {  // the others' rows: ds − ds_last = 0, nothing to add
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, changed->size(), 4 * kParallelGrain),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i != r.end(); ++i) track((*changed)[i]);
+                      });
   } else {
     tbb::parallel_for(tbb::blocked_range<Index>(0, nv, 4 * kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
-      for (Index v = r.begin(); v != r.end(); ++v)
-        changed_[at(v)] += (ds.row(v) - ds_last_.row(v)).cwiseAbs().maxCoeff();
+      for (Index v = r.begin(); v != r.end(); ++v) track(v);
     });
   }
-  ds_last_ = ds;
+  // A round's detection measures the pairs of its flagged vertices, found
+  // through the list's index: the same pairs as a pass over the list that
+  // skips the others, in the same (ascending) order.
+  const bool selective = only != nullptr && changed != nullptr && select_pairs(*changed);
+  const std::size_t count = selective ? selected_.size() : candidates_.size();
   // Fixed runs of the list, each collecting its own findings in list order:
   // no pass over the whole list after the parallel one.
   constexpr std::size_t kDetectChunk = 1024;
-  const std::size_t num_chunks = (candidates_.size() + kDetectChunk - 1) / kDetectChunk;
+  const std::size_t num_chunks = (count + kDetectChunk - 1) / kDetectChunk;
   if (found_.size() < num_chunks) found_.resize(num_chunks);
   tbb::parallel_for(std::size_t{0}, num_chunks, [&](std::size_t chunk) {
                       Found& found = found_[chunk];
                       found.impacts.clear();
                       found.close.clear();
                       found.measured = found.touching = 0;
-                      const std::size_t end = std::min(candidates_.size(), (chunk + 1) * kDetectChunk);
-                      for (std::size_t i = chunk * kDetectChunk; i != end; ++i) {
+                      const std::size_t end = std::min(count, (chunk + 1) * kDetectChunk);
+                      for (std::size_t read = chunk * kDetectChunk; read != end; ++read) {
+                        const std::size_t i = selective ? selected_[read] : read;
                         const Pair& p = candidates_[i];
                         if (only && !((*only)[at(p.vertices[0])] || (*only)[at(p.vertices[1])] ||
                                       (*only)[at(p.vertices[2])] || (*only)[at(p.vertices[3])]))
@@ -732,7 +803,7 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
                         const double keep = kept_apart(start, thickness);
                         double clearance = 0.0;
                         if (const auto t = ccd::time_of_impact(kind, x, gather(ds, p.vertices), keep, &clearance))
-                          found.impacts.push_back({i, *t});
+                          found.impacts.push_back({i, *t, start});
                         clearance_[i] = clearance;
                         for (std::size_t k = 0; k < 4; ++k) changed_at_[i][k] = changed_[at(p.vertices[k])];
                       }
@@ -754,44 +825,38 @@ std::vector<SelfCollisions::Impact> SelfCollisions::detect(const Body& body, con
   return impacts;
 }
 
-bool SelfCollisions::apply_impulse(const Body& body, const Pair& pair, const ccd::Points4& x, Points& d,
-                                   const std::vector<std::uint8_t>& fixed, double target, double friction) const {
-  const std::optional<Approach> approach = approach_of(body, static_cast<PairKind>(pair.kind), pair.vertices, x);
-  if (!approach) return false;  // touching: no direction to push along
-  const Vec3& n = approach->n;
-  const NodeWeights& w = approach->w;
-  Vec3 u = Vec3::Zero();
-  double K = 0.0;
-  std::array<double, 16> inverse_mass{};
-  for (std::size_t k = 0; k < std::size_t(w.size); ++k) {
-    const Index node = w.node[k];
-    inverse_mass[k] = (!fixed.empty() && fixed[at(node)]) ? 0.0 : 1.0 / body.masses[node];
-    u += w.c[k] * d.row(node).transpose();
-    K += w.c[k] * w.c[k] * inverse_mass[k];
+bool SelfCollisions::select_pairs(const std::vector<Index>& changed) {
+  if (!index_valid_ || indexed_ > list_size_ || list_size_ - indexed_ > indexed_ / 4) {
+    // A counting sort of the list's pairs by vertex, each pair under each
+    // of its four vertices, ascending within a vertex.
+    const auto nv = static_cast<std::size_t>(list_positions_.rows());
+    indexed_ = list_size_;
+    vertex_pair_offsets_.assign(nv + 1, 0);
+    for (std::size_t i = 0; i < indexed_; ++i)
+      for (const Index v : candidates_[i].vertices) ++vertex_pair_offsets_[at(v) + 1];
+    for (std::size_t v = 0; v < nv; ++v) vertex_pair_offsets_[v + 1] += vertex_pair_offsets_[v];
+    vertex_pairs_.resize(vertex_pair_offsets_[nv]);
+    std::vector<std::size_t> next(vertex_pair_offsets_.begin(), vertex_pair_offsets_.end() - 1);
+    for (std::size_t i = 0; i < indexed_; ++i)
+      for (const Index v : candidates_[i].vertices) vertex_pairs_[next[at(v)]++] = static_cast<std::uint32_t>(i);
+    pair_marked_.assign(indexed_, 0);
+    index_valid_ = true;
   }
-  const double un = u.dot(n);
-  if (un >= target || !(K > 0.0)) return false;
-  // Inelastic normal impulse (the relative normal displacement becomes the
-  // target), Coulomb friction bounded by it.
-  Vec3 change = (target - un) / K * n;
-  const Vec3 ut = u - un * n;
-  const double slide = ut.norm();
-  if (slide > 0.0) change -= std::min(slide, friction * (target - un)) / K * (ut / slide);
-  // Node k moves by c_k/m_k × the impulse. Two sides whose points lie in
-  // elements sharing nodes nearly cancel there (small K), and a light node
-  // (a lattice node outside the material, at the mass floor) with a small
-  // weight is cheap to move: the impulse would send it far for a tiny
-  // change at the pair. No node moves more than kMaxNodeMove × the change
-  // the impulse makes at the pair (K × change); the impulse is scaled down,
-  // both sides alike (momentum kept), and what is left of the approach goes
-  // to the next round or to the rigid zones.
-  double largest = 0.0;
-  for (std::size_t k = 0; k < std::size_t(w.size); ++k)
-    largest = std::max(largest, std::abs(w.c[k]) * inverse_mass[k]);
-  const double allowed = kMaxNodeMove * K;
-  if (largest > allowed) change *= allowed / largest;
-  for (std::size_t k = 0; k < std::size_t(w.size); ++k)
-    d.row(w.node[k]) += (w.c[k] * inverse_mass[k] * change).transpose();
+  std::size_t reached = 0;
+  for (const Index v : changed) reached += vertex_pair_offsets_[at(v) + 1] - vertex_pair_offsets_[at(v)];
+  if (reached > indexed_ / 2) return false;  // a pass over the list is cheaper
+  selected_.clear();
+  for (const Index v : changed)
+    for (std::size_t j = vertex_pair_offsets_[at(v)]; j != vertex_pair_offsets_[at(v) + 1]; ++j) {
+      const std::uint32_t i = vertex_pairs_[j];
+      if (!pair_marked_[i]) {
+        pair_marked_[i] = 1;
+        selected_.push_back(i);
+      }
+    }
+  std::sort(selected_.begin(), selected_.end());
+  for (const std::size_t i : selected_) pair_marked_[i] = 0;
+  for (std::size_t i = indexed_; i < candidates_.size(); ++i) selected_.push_back(i);  // checked against `only` as read
   return true;
 }
 
@@ -843,7 +908,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   // A new step: every pair is measured at its first detection.
   std::fill(clearance_.begin(), clearance_.end(), -std::numeric_limits<double>::infinity());
   ds_last_.resize(0, 3);
-  std::vector<Impact> impacts = detect(body, xs0, ds, thickness, nullptr, nullptr, stats);
+  std::vector<Impact> impacts = detect(body, xs0, ds, thickness, nullptr, nullptr, nullptr, stats);
 
   // Proximity: pairs closer than the thickness at the start are pushed
   // apart by a tenth of what is missing per step.
@@ -854,17 +919,23 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   });
   for (const auto& [i, start] : close) {
     const Pair& p = candidates_[i];
-    if (apply_impulse(body, p, gather(xs0, p.vertices), d, fixed, parameters.target_scale * kRepulsionFraction * (thickness - start),
-                      friction(p, parameters.friction)))
+    const auto kind = static_cast<PairKind>(p.kind);
+    if (push_apart(body, approach_of(body, kind, p.vertices, gather(xs0, p.vertices)), d, fixed,
+                   parameters.target_scale * kRepulsionFraction * (thickness - start), friction(p, parameters.friction)))
       ++stats.repulsions;
   }
   // Detection again after impulses. With `only` (per surface vertex), and
   // the candidate list kept, only pairs with a flagged vertex are measured:
   // the others' vertices stand and move as when they were measured.
-  // `moved` (per node) flags the nodes moved since the last detection.
+  // `moved` (per node) flags the nodes moved since the last detection,
+  // `changed` (ascending) the surface vertices of their elements, `only`'s
+  // flagged ones: only their displacements are computed again.
   auto redetect = [&](const std::vector<Index>* zone, const std::vector<std::uint8_t>* only,
-                      const std::vector<std::uint8_t>* moved) {
-    ds = body.embedding.surface_positions(body.tets, d);
+                      const std::vector<std::uint8_t>* moved, const std::vector<Index>* changed) {
+    if (changed)
+      body.embedding.update_surface_positions(body.tets, d, *changed, ds);
+    else
+      ds = body.embedding.surface_positions(body.tets, d);
     const bool rebuilt = find_candidates(body, x0, d, xs0, ds, thickness, stats);
     // Impulses and rigid zones move nodes: an element may no longer stay
     // positive, a star no longer calm (their pairs are measured from now
@@ -873,12 +944,13 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
     update_orientations(body, x0, d, rebuilt ? nullptr : moved);
     const bool added = list_unsafe_groups(body, x0, d, rebuilt ? nullptr : moved, thickness);
     add_local_pairs(body, xs0, ds, thickness);
-    return detect(body, xs0, ds, thickness, zone, rebuilt || added ? nullptr : only, stats);
+    return detect(body, xs0, ds, thickness, zone, rebuilt || added ? nullptr : only, changed, stats);
   };
-  if (stats.repulsions > 0) impacts = redetect(nullptr, nullptr, nullptr);
+  if (stats.repulsions > 0) impacts = redetect(nullptr, nullptr, nullptr, nullptr);
 
   // Impulse rounds: each impact stops the pair's approach where CCD found it.
   std::vector<std::uint8_t> moved(at(body.num_nodes())), again(at(body.embedding.num_vertices()));
+  std::vector<Index> flagged;  // again's vertices, ascending
   // How the round moved each impact's pair (all its impulses together), in
   // impact order.
   struct Progress {
@@ -899,14 +971,14 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
       const ccd::Points4 dx = gather(ds, p.vertices);
       for (std::size_t k = 0; k < 4; ++k) x[k] += impacts[i].toi * dx[k];
       approaches[i] = approach_of(body, static_cast<PairKind>(p.kind), p.vertices, x);
-      if (apply_impulse(body, p, x, d, fixed, target, friction(p, parameters.friction))) ++stats.impacts;
+      if (push_apart(body, approaches[i], d, fixed, target, friction(p, parameters.friction))) ++stats.impacts;
     }
     progress.clear();
     for (std::size_t i = 0; i < impacts.size(); ++i) {
       const Pair& p = candidates_[impacts[i].pair];
       // A pair that starts at `start` is reported when it comes within
       // `keep` (detect): it may approach by start − keep unreported.
-      const double start = ccd::closest(static_cast<PairKind>(p.kind), gather(xs0, p.vertices)).distance;
+      const double start = impacts[i].start;
       const double keep = kept_apart(start, thickness);
       Progress q{{p.kind, p.vertices}, 0.0, 0.0, target + (start - keep)};
       if (approaches[i]) {
@@ -926,7 +998,10 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
     }
     for (const Impact& impact : impacts)
       for (const Index v : candidates_[impact.pair].vertices) again[at(v)] = 1;
-    impacts = redetect(nullptr, &again, &moved);
+    flagged.clear();
+    for (Index v = 0; v < body.embedding.num_vertices(); ++v)
+      if (again[at(v)]) flagged.push_back(v);
+    impacts = redetect(nullptr, &again, &moved, &flagged);
     // A round gives each pair a share g of what it lacks; R more rounds at
     // that rate leave (1 − g)^R of what it lacks now. The pair stops being
     // reported once its normal displacement falls short of the target by
@@ -935,7 +1010,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
     // not bring within its spare, more rounds only put off the fail-safe:
     // it takes them now, after one detection rather than R. Pairs of points
     // hung on shared nodes, whose impulses nearly cancel, are cut to a few
-    // percent a round (apply_impulse), and on a fold sitting at the
+    // percent a round (push_apart), and on a fold sitting at the
     // thickness they meet this every step. (A prediction, not a bound: the
     // rounds resolve what they can, the rigid zones the rest, and the step
     // ends with no crossing either way.)
@@ -979,7 +1054,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
         }
     }
     rigidify_zones();
-    impacts = redetect(&root, nullptr, nullptr);
+    impacts = redetect(&root, nullptr, nullptr, nullptr);
   }
   if (!impacts.empty()) {  // the last resort: the whole body as one zone
     for (Index n = 1; n < nn; ++n) zones.unite(0, n);

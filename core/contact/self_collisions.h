@@ -99,7 +99,8 @@ class SelfCollisions {
   };
   struct Impact {
     std::size_t pair;
-    double toi;
+    double toi;    // the share of the step at which it comes within its reporting distance
+    double start;  // its distance at the step's start
   };
   /// Returns whether the surface's topology changed (the edges are rebuilt).
   bool update_edges(const Triangles& triangles);
@@ -165,14 +166,19 @@ class SelfCollisions {
   /// (or half their starting gap) while approaching. With `zone`, pairs whose
   /// nodes all lie in one rigid zone are skipped (their distances cannot
   /// shrink). With `only`, pairs none of whose vertices it flags are skipped.
+  /// With `changed` (ascending), only those vertices' displacements may
+  /// differ from the last detection's: the others' bookkeeping is left as
+  /// it is (it would not change), and with `only` too the pairs measured
+  /// are found through the list's index (index_pairs) rather than a pass
+  /// over the whole list.
   std::vector<Impact> detect(const Body& body, const Points& xs0, const Points& ds, double thickness,
                              const std::vector<Index>* zone, const std::vector<std::uint8_t>* only,
-                             SelfCollisionStats& stats);
-  /// One impulse bringing the pair's relative normal displacement over the
-  /// step up to `target` (m), along the line of the pair's closest points at
-  /// positions `x`, with friction. Returns whether it acted.
-  bool apply_impulse(const Body& body, const Pair& pair, const ccd::Points4& x, Points& d,
-                     const std::vector<std::uint8_t>& fixed, double target, double friction) const;
+                             const std::vector<Index>* changed, SelfCollisionStats& stats);
+  /// The list's pairs holding one of the `changed` vertices, ascending, into
+  /// selected_ (the pairs past the index, appended since it was built,
+  /// all). Returns false when they are so many that a pass over the list
+  /// costs less.
+  bool select_pairs(const std::vector<Index>& changed);
 
   /// Whether the pair lies within one body (always, without groups).
   [[nodiscard]] bool within(const Pair& pair) const {
@@ -213,6 +219,15 @@ class SelfCollisions {
   };
   std::vector<Owned> owned_;
   std::vector<Pair> candidates_;
+  // Per surface vertex, the list's first indexed_ pairs that hold it
+  // (offsets into vertex_pairs_), built when a round first needs it after
+  // the list was built; pairs appended later are read past it.
+  std::vector<std::size_t> vertex_pair_offsets_;
+  std::vector<std::uint32_t> vertex_pairs_;
+  std::size_t indexed_ = 0;
+  bool index_valid_ = false;
+  std::vector<std::uint8_t> pair_marked_;  // per indexed pair: in selected_ (cleared after each selection)
+  std::vector<std::size_t> selected_;      // the pairs a round's detection measures
   // What one detection found in each fixed run of kDetectChunk candidates
   // (collected in parallel, read in list order).
   struct Found {
