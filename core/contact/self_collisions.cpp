@@ -917,6 +917,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
     return std::tie(candidates_[a.first].kind, candidates_[a.first].vertices) <
            std::tie(candidates_[b.first].kind, candidates_[b.first].vertices);
   });
+  const Points d_start = close.empty() ? Points() : d;
   for (const auto& [i, start] : close) {
     const Pair& p = candidates_[i];
     const auto kind = static_cast<PairKind>(p.kind);
@@ -946,11 +947,31 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
     add_local_pairs(body, xs0, ds, thickness);
     return detect(body, xs0, ds, thickness, zone, rebuilt || added ? nullptr : only, changed, stats);
   };
-  if (stats.repulsions > 0) impacts = redetect(nullptr, nullptr, nullptr, nullptr);
+  // Measured again after impulses: pairs of a vertex whose element has a
+  // node that moved since `d_before`, and those of `impacts` (an impulse
+  // that could not act leaves its pair): `moved` per node, `again` per
+  // surface vertex, `flagged` its vertices, ascending.
+  std::vector<std::uint8_t> moved(at(body.num_nodes())), again(at(body.embedding.num_vertices()));
+  std::vector<Index> flagged;
+  auto flag_moved = [&](const Points& d_before, const std::vector<Impact>& impacts_before) {
+    for (Index n = 0; n < body.num_nodes(); ++n) moved[at(n)] = d.row(n) != d_before.row(n) ? 1 : 0;
+    for (Index v = 0; v < body.embedding.num_vertices(); ++v) {
+      const Index e = body.embedding.parent[at(v)];
+      again[at(v)] = moved[at(body.tets(e, 0))] | moved[at(body.tets(e, 1))] | moved[at(body.tets(e, 2))] |
+                     moved[at(body.tets(e, 3))];
+    }
+    for (const Impact& impact : impacts_before)
+      for (const Index v : candidates_[impact.pair].vertices) again[at(v)] = 1;
+    flagged.clear();
+    for (Index v = 0; v < body.embedding.num_vertices(); ++v)
+      if (again[at(v)]) flagged.push_back(v);
+  };
+  if (stats.repulsions > 0) {
+    flag_moved(d_start, impacts);
+    impacts = redetect(nullptr, &again, &moved, &flagged);
+  }
 
   // Impulse rounds: each impact stops the pair's approach where CCD found it.
-  std::vector<std::uint8_t> moved(at(body.num_nodes())), again(at(body.embedding.num_vertices()));
-  std::vector<Index> flagged;  // again's vertices, ascending
   // How the round moved each impact's pair (all its impulses together), in
   // impact order.
   struct Progress {
@@ -988,19 +1009,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
       }
       progress.push_back(q);
     }
-    // Measured again: pairs of a vertex whose element has a node that moved,
-    // and the impacts' own (an impulse that could not act leaves its pair).
-    for (Index n = 0; n < body.num_nodes(); ++n) moved[at(n)] = d.row(n) != d_before.row(n) ? 1 : 0;
-    for (Index v = 0; v < body.embedding.num_vertices(); ++v) {
-      const Index e = body.embedding.parent[at(v)];
-      again[at(v)] = moved[at(body.tets(e, 0))] | moved[at(body.tets(e, 1))] | moved[at(body.tets(e, 2))] |
-                     moved[at(body.tets(e, 3))];
-    }
-    for (const Impact& impact : impacts)
-      for (const Index v : candidates_[impact.pair].vertices) again[at(v)] = 1;
-    flagged.clear();
-    for (Index v = 0; v < body.embedding.num_vertices(); ++v)
-      if (again[at(v)]) flagged.push_back(v);
+    flag_moved(d_before, impacts);
     impacts = redetect(nullptr, &again, &moved, &flagged);
     // A round gives each pair a share g of what it lacks; R more rounds at
     // that rate leave (1 − g)^R of what it lacks now. The pair stops being
@@ -1053,8 +1062,10 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
           zoned[at(node)] = 1;
         }
     }
+    const Points d_before = d;
     rigidify_zones();
-    impacts = redetect(&root, nullptr, nullptr, nullptr);
+    flag_moved(d_before, impacts);
+    impacts = redetect(&root, &again, &moved, &flagged);
   }
   if (!impacts.empty()) {  // the last resort: the whole body as one zone
     for (Index n = 1; n < nn; ++n) zones.unite(0, n);
