@@ -169,7 +169,7 @@ class SelfCollisions {
   /// With `changed` (ascending), only those vertices' displacements may
   /// differ from the last detection's: the others' bookkeeping is left as
   /// it is (it would not change), and with `only` too the pairs measured
-  /// are found through the list's index (index_pairs) rather than a pass
+  /// are found through the list's index (select_pairs) rather than a pass
   /// over the whole list.
   std::vector<Impact> detect(const Body& body, const Points& xs0, const Points& ds, double thickness,
                              const std::vector<Index>* zone, const std::vector<std::uint8_t>* only,
