@@ -18,13 +18,6 @@
 namespace goo {
 namespace {
 
-template <class F>
-void for_each_index(Index count, F&& f) {
-  tbb::parallel_for(tbb::blocked_range<Index>(0, count, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
-    for (Index i = r.begin(); i != r.end(); ++i) f(i);
-  });
-}
-
 /// out_i = ¼ Σ_{e∋i} per_element_e, in the incidence's fixed order.
 void quarter_node_sums(const NodeIncidence& incidence, const Eigen::VectorXd& per_element, Eigen::VectorXd& out) {
   out.resize(static_cast<Index>(incidence.offsets.size() - 1));

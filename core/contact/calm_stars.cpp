@@ -101,22 +101,31 @@ double pair_ratio(const std::array<Index, 3>& ia, const std::array<Index, 3>& ib
   return ratio;
 }
 
-}  // namespace
-
-double star_spread(const std::vector<Eigen::Matrix3d>& F0, const std::vector<Eigen::Matrix3d>& F1) {
-  if (F0.empty()) return std::numeric_limits<double>::infinity();
+/// star_spread of `count` tets whose gradients are F0(k) and F1(k), read
+/// where they are (a star's from the per-element arrays: no copies).
+template <class Start, class End>
+double spread_of(std::size_t count, Start&& F0, End&& F1) {
+  if (count == 0) return std::numeric_limits<double>::infinity();
   Eigen::Matrix3d A0 = Eigen::Matrix3d::Zero(), A1 = Eigen::Matrix3d::Zero();
-  for (std::size_t k = 0; k < F0.size(); ++k) {
-    A0 += F0[k];
-    A1 += F1[k];
+  for (std::size_t k = 0; k < count; ++k) {
+    A0 += F0(k);
+    A1 += F1(k);
   }
-  A0 /= double(F0.size());
-  A1 /= double(F1.size());
+  A0 /= double(count);
+  A1 /= double(count);
   double L = 0.0;
-  for (std::size_t k = 0; k < F0.size(); ++k) L = std::max({L, (F0[k] - A0).norm(), (F1[k] - A1).norm()});
+  for (std::size_t k = 0; k < count; ++k) L = std::max({L, (F0(k) - A0).norm(), (F1(k) - A1).norm()});
   const double s0 = smallest_singular_value(A0), s1 = smallest_singular_value(A1), delta = (A1 - A0).norm();
   const double s = std::min({s0, s1, 0.5 * (s0 + s1 - delta)});
   return s > 0.0 ? L / s : std::numeric_limits<double>::infinity();
+}
+
+}  // namespace
+
+double star_spread(const std::vector<Eigen::Matrix3d>& F0, const std::vector<Eigen::Matrix3d>& F1) {
+  return spread_of(
+      F0.size(), [&](std::size_t k) -> const Eigen::Matrix3d& { return F0[k]; },
+      [&](std::size_t k) -> const Eigen::Matrix3d& { return F1[k]; });
 }
 
 bool CalmStars::update_mesh(const Body& body) {
@@ -275,13 +284,11 @@ void CalmStars::gradients(const Body& body, const Points& x0, const Points& d,
 
 double CalmStars::spread(const Body& body, Index n) const {
   (void)body;
-  std::vector<Eigen::Matrix3d> F0, F1;
-  for (Index c = incidence_.offsets[at(n)]; c < incidence_.offsets[at(n) + 1]; ++c) {
-    const Index e = incidence_.corners[at(c)] / 4;
-    F0.push_back(F0_[at(e)]);
-    F1.push_back(F1_[at(e)]);
-  }
-  return star_spread(F0, F1);
+  const Index first = incidence_.offsets[at(n)];
+  auto element = [&](std::size_t k) { return at(incidence_.corners[at(first) + k] / 4); };
+  return spread_of(
+      at(incidence_.offsets[at(n) + 1] - first), [&](std::size_t k) -> const Eigen::Matrix3d& { return F0_[element(k)]; },
+      [&](std::size_t k) -> const Eigen::Matrix3d& { return F1_[element(k)]; });
 }
 
 std::vector<Index> CalmStars::assign_groups(const Body& body, const Points& x0, const Points& d) {

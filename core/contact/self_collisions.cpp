@@ -162,14 +162,6 @@ double reach(PairKind kind, const std::array<Index, 4>& v, const std::vector<dou
   return std::sqrt(3.0) * (a + b);
 }
 
-/// f(i) for i in [0, count), in parallel (each i writes only its own).
-template <class F>
-void for_each_in(Index count, F&& f) {
-  tbb::parallel_for(tbb::blocked_range<Index>(0, count, 4 * kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
-    for (Index i = r.begin(); i != r.end(); ++i) f(i);
-  });
-}
-
 Box3 grown(Box3 b, double by) {
   b.min().array() -= by;
   b.max().array() += by;
@@ -493,14 +485,14 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const P
   eb.resize(edges_.size());
   // Grown by half the reporting distance too: boxes that stay apart keep
   // their primitives more than 2δ apart while the list holds.
-  for_each_in(nv, [&](Index v) {
+  for_each_index(nv, [&](Index v) {
     vb[at(v)] = grown(Box3(xs0.row(v).transpose(), xs0.row(v).transpose()),
                       reach_margin_[at(v)] + 0.5 * kReported * thickness);
   });
-  for_each_in(nt, [&](Index t) {
+  for_each_index(nt, [&](Index t) {
     tb[at(t)] = Box3(vb[at(tris(t, 0))]).extend(vb[at(tris(t, 1))]).extend(vb[at(tris(t, 2))]);
   });
-  for_each_in(static_cast<Index>(edges_.size()), [&](Index e) {
+  for_each_index(static_cast<Index>(edges_.size()), [&](Index e) {
     eb[at(e)] = Box3(vb[at(edges_[at(e)][0])]).extend(vb[at(edges_[at(e)][1])]);
   });
   list_positions_ = xs0;
@@ -518,7 +510,7 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const P
   // Triangles with all three corners in one element share that element as
   // their group: two of one group hold only pairs within it (left out below).
   std::vector<Index> element_of(at(nt));
-  for_each_in(nt, [&](Index t) {
+  for_each_index(nt, [&](Index t) {
     const Index e = body.embedding.parent[at(tris(t, 0))];
     element_of[at(t)] =
         body.embedding.parent[at(tris(t, 1))] == e && body.embedding.parent[at(tris(t, 2))] == e ? e : -1;
