@@ -21,7 +21,7 @@ inline std::size_t at(Index i) {
 /// f(i) for every i in [0, count), in parallel over runs of `grain`: for
 /// loops where each i writes only its own results.
 template <class F>
-void for_each_index(Index count, F&& f, Index grain = kParallelGrain) {
+void for_each_index(Index count, F&& f, std::size_t grain = kParallelGrain) {
   tbb::parallel_for(tbb::blocked_range<Index>(0, count, grain), [&](const tbb::blocked_range<Index>& r) {
     for (Index i = r.begin(); i != r.end(); ++i) f(i);
   });

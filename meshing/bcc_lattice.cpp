@@ -74,6 +74,19 @@ Eigen::Vector3d BccLattice::position(Key node) const {
                                         static_cast<double>(k) + shift);
 }
 
+BccLattice::Key BccLattice::space_order(Key node) const {
+  const bool centre = is_centre(node);
+  Key rest = centre ? node - num_corners_ : node;
+  if (centre) {  // a centre's cell (i, j, k), as the corner (i, j, k) numbers it
+    const Key i = rest % cells_.x();
+    rest /= cells_.x();
+    const Key j = rest % cells_.y();
+    const Key k = rest / cells_.y();
+    return 2 * corner_key({static_cast<int>(i), static_cast<int>(j), static_cast<int>(k)}) + 1;
+  }
+  return 2 * rest;
+}
+
 BccLattice::Key BccLattice::tet_key(const Eigen::Vector3i& cell, int axis, int edge) const {
   const Key linear = cell.x() + Key{cells_.x()} * (cell.y() + Key{cells_.y()} * cell.z());
   return 12 * linear + 4 * axis + edge;

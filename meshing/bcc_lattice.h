@@ -32,6 +32,14 @@ class BccLattice {
   [[nodiscard]] Key centre_key(const Eigen::Vector3i& ijk) const;  ///< 0 ≤ ijk < cells
   [[nodiscard]] bool is_centre(Key node) const { return node >= num_corners_; }
   [[nodiscard]] Eigen::Vector3d position(Key node) const;
+  /// A node's place in space order: corner (i, j, k), then the centre of
+  /// cell (i, j, k), cells x fastest. Meshes number their nodes in this
+  /// order, so an element's four nodes lie near each other in the node
+  /// arrays as elements lie near each other in theirs (in key order the
+  /// corners and the centres formed two halves, and every element read
+  /// both: a loop over elements split between threads then read and wrote
+  /// the other thread's node data at every element).
+  [[nodiscard]] Key space_order(Key node) const;
 
   // ---- tetrahedra: 12 per cell, keyed by (lower cell of the centre pair, axis, edge)
   /// Number of tetrahedron keys (12 per cell; keys whose upper cell falls

@@ -112,18 +112,21 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
   });
   for (const auto& chunk : chunks)
     for (const BccLattice::Key key : chunk) keep[static_cast<std::size_t>(key)] = 1;
-  // Compact numbering, in lattice key order (deterministic).
+  // Compact numbering: elements in lattice key order, nodes in space order
+  // (BccLattice::space_order; deterministic).
   std::vector<Index> node_id(static_cast<std::size_t>(lattice.num_nodes()), -1);
   for (BccLattice::Key t = 0; t < lattice.num_tet_keys(); ++t) {
     if (!keep[static_cast<std::size_t>(t)]) continue;
     out.tet_keys.push_back(t);
     for (const auto n : lattice.tet_nodes(t)) node_id[static_cast<std::size_t>(n)] = 0;
   }
-  for (BccLattice::Key n = 0; n < lattice.num_nodes(); ++n) {
-    if (node_id[static_cast<std::size_t>(n)] < 0) continue;
-    node_id[static_cast<std::size_t>(n)] = static_cast<Index>(out.node_keys.size());
-    out.node_keys.push_back(n);
-  }
+  for (BccLattice::Key n = 0; n < lattice.num_nodes(); ++n)
+    if (node_id[static_cast<std::size_t>(n)] >= 0) out.node_keys.push_back(n);
+  std::sort(out.node_keys.begin(), out.node_keys.end(), [&](BccLattice::Key a, BccLattice::Key b) {
+    return lattice.space_order(a) < lattice.space_order(b);
+  });
+  for (std::size_t i = 0; i < out.node_keys.size(); ++i)
+    node_id[static_cast<std::size_t>(out.node_keys[i])] = static_cast<Index>(i);
   out.mesh.positions.resize(static_cast<Eigen::Index>(out.node_keys.size()), 3);
   for (std::size_t i = 0; i < out.node_keys.size(); ++i)
     out.mesh.positions.row(static_cast<Eigen::Index>(i)) = lattice.position(out.node_keys[i]).transpose();

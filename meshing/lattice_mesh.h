@@ -15,7 +15,7 @@ namespace goo {
 struct LatticeMesh {
   BccLattice lattice;
   TetMesh mesh;                                           ///< compact nodes and tets, positively oriented
-  std::vector<BccLattice::Key> node_keys;                 ///< #N lattice key of each node (increasing)
+  std::vector<BccLattice::Key> node_keys;                 ///< #N lattice key of each node (in BccLattice::space_order)
   std::vector<BccLattice::Key> tet_keys;                  ///< #E lattice key of each tet (increasing)
   std::vector<std::uint8_t> node_inside;                  ///< #N 1 if the node is inside the surface (exact)
   std::vector<Index> element_of_key;                      ///< lattice tet key → element, −1 if not kept

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <random>
 
 #include "core/error.h"
@@ -92,6 +93,31 @@ TEST(LatticeMesh, IsDeterministicAndAlignedToTheWorldGrid) {
   const Eigen::Vector3d cells = a.lattice.origin() / 0.1;
   EXPECT_TRUE(test::matrices_near(cells, cells.array().round().matrix(), 1e-12));
   EXPECT_THROW(build_lattice_mesh(sphere, 0.0), Error);
+}
+
+TEST(LatticeMesh, NumbersNodesInSpaceOrderSoThatAnElementsNodesLieNearEachOther) {
+  // Nodes in BccLattice::space_order (corner (i, j, k), then the centre of
+  // cell (i, j, k)): a tet's four nodes lie in the corner grid's cells c +
+  // {0, 1}³ of its lower centre's cell c, so their places in that order
+  // differ by at most 2 (1 + X + X Y) + 1 (X, Y the corner grid's rows), and
+  // their compact numbers (ranks among the used nodes) by no more. In key
+  // order (corners, then centres) every element spanned the two halves.
+  int telling = 0;  // cases where the bound is below half the nodes (key order's spread)
+  for (const Case& c : test::lattice_cases()) {
+    SCOPED_TRACE(c.name);
+    const LatticeMesh lm = build_lattice_mesh(c.surface, c.h);
+    for (std::size_t i = 1; i < lm.node_keys.size(); ++i)
+      ASSERT_LT(lm.lattice.space_order(lm.node_keys[i - 1]), lm.lattice.space_order(lm.node_keys[i]));
+    for (std::size_t i = 0; i < lm.node_keys.size(); ++i)
+      ASSERT_EQ(lm.node(lm.node_keys[i]), static_cast<Index>(i));
+    const Index X = lm.lattice.cells().x() + 1, Y = lm.lattice.cells().y() + 1;
+    Index spread = 0;
+    for (Index e = 0; e < lm.mesh.num_elements(); ++e)
+      spread = std::max(spread, lm.mesh.tets.row(e).maxCoeff() - lm.mesh.tets.row(e).minCoeff());
+    EXPECT_LE(spread, 2 * (1 + X + X * Y) + 1);
+    if (2 * (1 + X + X * Y) + 1 < lm.mesh.num_nodes() / 2) ++telling;
+  }
+  EXPECT_GT(telling, 0);
 }
 
 }  // namespace
