@@ -1,13 +1,16 @@
 // Lattice meshing stages on real models: what a re-mesh costs.
 #include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <cmath>
 #include <vector>
 #include <filesystem>
 #include <map>
+#include <numeric>
 
 #include "bench/bench_models.h"
+#include "core/damping.h"
 #include "core/elastic_forces.h"
 #include "core/surface_check.h"
 #include "core/surface_geometry.h"
@@ -194,5 +197,59 @@ void BM_SurfaceUpkeep(benchmark::State& state) {
   state.counters["flips"] = static_cast<double>(report.flips);
 }
 BENCHMARK(BM_SurfaceUpkeep)->Apply(configure);
+
+/// The damping operator on a real model's lattice mesh, as a CG iteration
+/// applies it: −C p, then p changed on the calling thread. Unlike
+/// BM_DampingApply's box, whose nodes are numbered along its elements by
+/// construction, this reads a lattice mesh's numbering: in space order as
+/// the mesher numbers them (order 0), or in lattice key order, corners then
+/// centres, as before session 32 (order 1: every element has nodes in both
+/// halves of the node arrays, so two threads write and read each other's
+/// data). Args: model, thousands of tetrahedra, threads, order. Elements per
+/// second.
+void BM_DampingApplyModel(benchmark::State& state) {
+  const goo::TriangleMesh* mesh = model(static_cast<int>(state.range(0)));
+  if (!mesh) return state.SkipWithError("assets missing: run scripts/fetch-assets");
+  const tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                                  static_cast<std::size_t>(state.range(2)));
+  const double h = spacing_for(*mesh, 1000.0 * static_cast<double>(state.range(1)));
+  goo::Material material;
+  material.viscosity = 100.0;
+  const goo::LatticeMesh lm = goo::build_lattice_mesh(*mesh, h);
+  goo::TetMesh tets = lm.mesh;
+  if (state.range(3) == 1) {  // renumbered in key order
+    std::vector<goo::Index> by_key(lm.node_keys.size()), number(lm.node_keys.size());
+    std::iota(by_key.begin(), by_key.end(), goo::Index{0});
+    std::sort(by_key.begin(), by_key.end(), [&](goo::Index a, goo::Index b) {
+      return lm.node_keys[static_cast<std::size_t>(a)] < lm.node_keys[static_cast<std::size_t>(b)];
+    });
+    for (std::size_t i = 0; i < by_key.size(); ++i) {
+      number[static_cast<std::size_t>(by_key[i])] = static_cast<goo::Index>(i);
+      tets.positions.row(static_cast<goo::Index>(i)) = lm.mesh.positions.row(by_key[i]);
+    }
+    for (goo::Index e = 0; e < tets.num_elements(); ++e)
+      for (int k = 0; k < 4; ++k) tets.tets(e, k) = number[static_cast<std::size_t>(lm.mesh.tets(e, k))];
+  }
+  goo::Body body = goo::make_body(std::move(tets), material);
+  goo::bench::deform(body);
+  goo::ElasticForces forces;
+  goo::Points f;
+  forces.evaluate(body, body.positions, 0.0, f);
+  goo::Damping damping;
+  damping.freeze(body, forces.elastic_deformation(), forces.inverse_plastic_deformation());
+  goo::Points p = body.velocities, out;
+  for (auto _ : state) {
+    damping.apply(body, p, out);
+    p -= 1e-9 * out;
+    benchmark::DoNotOptimize(p.data());
+  }
+  state.SetItemsProcessed(state.iterations() * body.num_elements());
+  state.counters["tets"] = body.num_elements();
+  state.counters["threads"] = static_cast<double>(state.range(2));
+}
+BENCHMARK(BM_DampingApplyModel)
+    ->ArgsProduct({{0}, {10, 60}, {1, 2}, {0, 1}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime();
 
 }  // namespace

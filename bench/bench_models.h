@@ -16,14 +16,10 @@ inline double spacing_for(const TriangleMesh& mesh, double tets) {
   return std::cbrt(12.0 * analyze_surface(mesh).volume / tets);
 }
 
-/// A body meshed around the model, then deformed smoothly (a twist and a
-/// shear of a few percent, no longer lattice-aligned), moving and stressed:
-/// what a re-mesh meets.
-inline MeshedBody deformed_body(const TriangleMesh& mesh, double h) {
-  Material material;
-  material.density = 1000.0;
-  MeshedBody mb = mesh_body(mesh, material, h);
-  Points& x = mb.body.positions;
+/// Deforms a body smoothly (a twist and a shear of a few percent, no
+/// longer lattice-aligned) and sets it moving: each node by where it is.
+inline void deform(Body& body) {
+  Points& x = body.positions;
   const Eigen::AlignedBox3d box = bounding_box(x);
   const double size = box.diagonal().norm();
   for (Index n = 0; n < x.rows(); ++n) {
@@ -32,8 +28,17 @@ inline MeshedBody deformed_body(const TriangleMesh& mesh, double h) {
     const Eigen::Vector3d q(std::cos(angle) * p.x() - std::sin(angle) * p.y() + 0.05 * p.z(),
                             std::sin(angle) * p.x() + std::cos(angle) * p.y(), 1.02 * p.z());
     x.row(n) = (box.center() + size * q).transpose();
-    mb.body.velocities.row(n) = Eigen::RowVector3d(-p.y(), p.x(), 0.1);
+    body.velocities.row(n) = Eigen::RowVector3d(-p.y(), p.x(), 0.1);
   }
+}
+
+/// A body meshed around the model, then deformed (deform), moving and
+/// stressed: what a re-mesh meets.
+inline MeshedBody deformed_body(const TriangleMesh& mesh, double h) {
+  Material material;
+  material.density = 1000.0;
+  MeshedBody mb = mesh_body(mesh, material, h);
+  deform(mb.body);
   return mb;
 }
 
