@@ -120,13 +120,19 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
     out.tet_keys.push_back(t);
     for (const auto n : lattice.tet_nodes(t)) node_id[static_cast<std::size_t>(n)] = 0;
   }
-  for (BccLattice::Key n = 0; n < lattice.num_nodes(); ++n)
-    if (node_id[static_cast<std::size_t>(n)] >= 0) out.node_keys.push_back(n);
-  std::sort(out.node_keys.begin(), out.node_keys.end(), [&](BccLattice::Key a, BccLattice::Key b) {
-    return lattice.space_order(a) < lattice.space_order(b);
-  });
-  for (std::size_t i = 0; i < out.node_keys.size(); ++i)
-    node_id[static_cast<std::size_t>(out.node_keys[i])] = static_cast<Index>(i);
+  // Space order by construction: corner (i, j, k), then the centre of cell
+  // (i, j, k) where there is one, cells x fastest.
+  const auto number = [&](BccLattice::Key n) {
+    if (node_id[static_cast<std::size_t>(n)] < 0) return;
+    node_id[static_cast<std::size_t>(n)] = static_cast<Index>(out.node_keys.size());
+    out.node_keys.push_back(n);
+  };
+  for (int k = 0; k <= cells.z(); ++k)
+    for (int j = 0; j <= cells.y(); ++j)
+      for (int i = 0; i <= cells.x(); ++i) {
+        number(lattice.corner_key({i, j, k}));
+        if (i < cells.x() && j < cells.y() && k < cells.z()) number(lattice.centre_key({i, j, k}));
+      }
   out.mesh.positions.resize(static_cast<Eigen::Index>(out.node_keys.size()), 3);
   for (std::size_t i = 0; i < out.node_keys.size(); ++i)
     out.mesh.positions.row(static_cast<Eigen::Index>(i)) = lattice.position(out.node_keys[i]).transpose();
