@@ -177,6 +177,7 @@ nlohmann::json to_json(const SelfCollisionStats& a, const SelfCollisionStats& b)
           {"zone_nodes", a.zone_nodes - b.zone_nodes},
           {"touching_at_start", a.touching_at_start - b.touching_at_start},
           {"broad_phases", a.list_builds - b.list_builds},
+          {"list_extensions", a.list_extensions - b.list_extensions},
           {"pairs_listed", a.listed - b.listed},
           {"steps_waited", a.waited - b.waited}};
 }

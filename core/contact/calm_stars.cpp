@@ -358,6 +358,16 @@ std::vector<Index> CalmStars::assign_groups(const Body& body, const Points& x0, 
   return group_;
 }
 
+bool CalmStars::returned(Index a, Index b) const {
+  const Index n = group_[at(a)];
+  if (n < 0 || group_[at(b)] != n) return false;
+  if (full_[at(n)]) return true;
+  const std::array<Index, 2> pair{std::min(a, b), std::max(a, b)};
+  for (Index k = near_offsets_[at(n)]; k < near_offsets_[at(n)] + near_listed_[at(n)]; ++k)
+    if (near_[at(near_members_[at(k)])] == pair) return true;
+  return false;
+}
+
 std::vector<std::array<Index, 2>> CalmStars::newly_unsafe(const Body& body, const Points& x0, const Points& d,
                                                           const std::vector<std::uint8_t>* moved,
                                                           const std::vector<Box3>& boxes) {

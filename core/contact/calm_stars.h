@@ -61,6 +61,11 @@ class CalmStars {
                                                  const std::vector<std::uint8_t>* moved,
                                                  const std::vector<Box3>& boxes);
 
+  /// Whether triangles a and b lie in one group whose pairs of them have
+  /// been returned since the last assign_groups (the group's in full, or
+  /// (a, b) as a near pair): listed, as two triangles of no common group are.
+  [[nodiscard]] bool returned(Index a, Index b) const;
+
   /// The near pairs of the last update_surface (triangle ids, lower first)
   /// and their ratios.
   [[nodiscard]] const std::vector<std::array<Index, 2>>& near_pairs() const { return near_; }

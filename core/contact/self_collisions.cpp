@@ -292,14 +292,15 @@ bool SelfCollisions::update_edges(const Triangles& triangles) {
   return true;
 }
 
-bool SelfCollisions::list_holds(const Points& xs0, const Points& ds) {
+SelfCollisions::ListCheck SelfCollisions::list_holds(const Points& xs0, const Points& ds) {
   // Every vertex, at the start and the end of the step, within its margin
   // (each coordinate) of its place at the build moved by its cluster's mean
   // motion since; and every two clusters' mean motions within their
   // allowance of each other. Both are convex in t and the motions linear
   // over the step: the two ends are enough.
   const auto nv = static_cast<Index>(xs0.rows()); const Index nc = clusters_;
-  std::array<Points, 2> mean{Points::Zero(nc, 3), Points::Zero(nc, 3)};
+  std::array<Points, 2>& mean = cluster_motion_;
+  mean = {Points::Zero(nc, 3), Points::Zero(nc, 3)};
   for (Index v = 0; v < nv; ++v) {  // in the vertices' order: the same bits on any thread count
     const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v);
     mean[0].row(cluster_[at(v)]) += start;
@@ -309,25 +310,27 @@ bool SelfCollisions::list_holds(const Points& xs0, const Points& ds) {
     mean[0].row(c) /= double(cluster_size_[at(c)]);
     mean[1].row(c) /= double(cluster_size_[at(c)]);
   }
-  std::atomic<bool> within{true};
-  tbb::parallel_for(tbb::blocked_range<Index>(0, nv, 4 * kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
-    for (Index v = r.begin(); v != r.end() && within.load(std::memory_order_relaxed); ++v) {
-      const Index c = cluster_[at(v)];
-      const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v) - mean[0].row(c);
-      const Eigen::RowVector3d end = xs0.row(v) + ds.row(v) - list_positions_.row(v) - mean[1].row(c);
-      drift_[at(v)] = std::max(start.cwiseAbs().maxCoeff(), end.cwiseAbs().maxCoeff());
-      if (!(drift_[at(v)] <= margin_[at(v)])) within.store(false, std::memory_order_relaxed);
-    }
-  });
-  if (!within.load()) return false;  // (drift_ is read only while the list holds: then all of it is set)
   for (Index a = 0; a < nc; ++a)
     for (Index b = a + 1; b < nc; ++b) {
       const double allowed = allowance_[at(a * nc + b)];
       if (!((mean[0].row(a) - mean[0].row(b)).cwiseAbs().maxCoeff() <= allowed &&
             (mean[1].row(a) - mean[1].row(b)).cwiseAbs().maxCoeff() <= allowed))
-        return false;
+        return ListCheck::clusters_parted;
     }
-  return true;
+  // Every vertex's drift (extend_list reads those past their margins).
+  std::atomic<bool> within{true};
+  tbb::parallel_for(tbb::blocked_range<Index>(0, nv, 4 * kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
+    bool all = true;
+    for (Index v = r.begin(); v != r.end(); ++v) {
+      const Index c = cluster_[at(v)];
+      const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v) - mean[0].row(c);
+      const Eigen::RowVector3d end = xs0.row(v) + ds.row(v) - list_positions_.row(v) - mean[1].row(c);
+      drift_[at(v)] = std::max(start.cwiseAbs().maxCoeff(), end.cwiseAbs().maxCoeff());
+      all = all && drift_[at(v)] <= margin_[at(v)];
+    }
+    if (!all) within.store(false, std::memory_order_relaxed);
+  });
+  return within.load() ? ListCheck::holds : ListCheck::vertices_past_margins;
 }
 
 void SelfCollisions::make_clusters(const Points& xs0) {
@@ -379,8 +382,10 @@ void SelfCollisions::set_frames(const Points& xs0, const Points& ds, double edge
     // Each cluster's hull (the triangles with a corner in it, at the build),
     // the largest margin of their corners, and which clusters share a
     // triangle with it.
-    std::vector<Box3> hull(at(nc));
-    std::vector<double> largest(at(nc), 0.0);
+    std::vector<Box3>& hull = hull_;
+    std::vector<double>& largest = largest_;
+    hull.assign(at(nc), Box3());
+    largest.assign(at(nc), 0.0);
     std::vector<std::uint8_t> shares(at(nc) * at(nc), 0);
     for (Index t = 0; t < nt; ++t) {
       Box3 box;
@@ -421,18 +426,15 @@ void SelfCollisions::set_frames(const Points& xs0, const Points& ds, double edge
     // with its mean, and no parting at all).
     allowance_.assign(at(nc) * at(nc), 0.0);
     for (int round = 0; round < kSlackRounds; ++round) {
-      std::vector<double> near(at(nc), 0.0);  // N_a
+      near_.assign(at(nc), 0.0);  // N_a
       for (Index a = 0; a < nc; ++a)
         for (Index b = 0; b < nc; ++b)
-          if (shares[at(a * nc + b)]) near[at(a)] = std::max(near[at(a)], slack_[at(a)] + slack_[at(b)]);
+          if (shares[at(a * nc + b)]) near_[at(a)] = std::max(near_[at(a)], slack_[at(a)] + slack_[at(b)]);
       bool raised = false;
       for (Index a = 0; a < nc; ++a)
         for (Index b = a + 1; b < nc; ++b) {
-          const double apart = hull[at(a)].exteriorDistance(hull[at(b)]);
-          const double far =
-              (apart - kReported * thickness) / std::sqrt(3.0) - near[at(a)] - near[at(b)] - largest[at(a)] - largest[at(b)];
           double& allowed = allowance_[at(a * nc + b)];
-          allowed = std::max(slack_[at(a)] + slack_[at(b)], far);
+          allowed = allowance(a, b, thickness);
           const double parting = (step.row(a) - step.row(b)).cwiseAbs().maxCoeff();
           if (!(allowed >= 4.0 * parting)) {
             slack_[at(a)] = std::max(slack_[at(a)], 2.0 * parting);
@@ -449,6 +451,13 @@ void SelfCollisions::set_frames(const Points& xs0, const Points& ds, double edge
   }
 }
 
+double SelfCollisions::allowance(Index a, Index b, double thickness) const {
+  const double apart = hull_[at(a)].exteriorDistance(hull_[at(b)]);
+  const double far = (apart - kReported * thickness) / std::sqrt(3.0) - near_[at(a)] - near_[at(b)] -
+                     largest_[at(a)] - largest_[at(b)];
+  return std::max(slack_[at(a)] + slack_[at(b)], far);
+}
+
 bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const Points& d, const Points& xs0,
                                      const Points& ds, double thickness, SelfCollisionStats& stats) {
   const Index nv = body.embedding.num_vertices();
@@ -460,8 +469,11 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const P
   drift_.resize(at(nv));
   if (stars_.update_mesh(body)) list_valid_ = false;
   if (list_valid_ && list_positions_.rows() == nv && list_parents_ == body.embedding.parent &&
-      cluster_.size() == at(nv) && list_holds(xs0, ds))
-    return false;
+      cluster_.size() == at(nv)) {
+    const ListCheck check = list_holds(xs0, ds);
+    if (check == ListCheck::holds) return false;
+    if (check == ListCheck::vertices_past_margins && extend_list(body, ds, thickness, stats)) return true;
+  }
   // A new list, in frames that move with the surface nearby: the surface's
   // clusters (make_clusters), each with its mean motion. A vertex gets a
   // margin: a tenth of the mean edge, or four times this step's motion
@@ -477,6 +489,8 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const P
   edge_length /= double(std::max<std::size_t>(1, edges_.size()));
   make_clusters(xs0);
   set_frames(xs0, ds, edge_length, thickness);
+  list_edge_length_ = edge_length;
+  extensions_ = 0;
   reach_margin_.resize(at(nv));
   for (Index v = 0; v < nv; ++v) reach_margin_[at(v)] = margin_[at(v)] + slack_[at(cluster_[at(v)])];
   std::vector<Box3>&vb = vertex_boxes_, &tb = triangle_boxes_, &eb = edge_boxes_;
@@ -523,6 +537,7 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const P
   for (Index t = 0; t < nt; ++t)
     if (group[at(t)] < 0 && element_of[at(t)] >= 0) group[at(t)] = nn + element_of[at(t)];
   const std::vector<std::array<Index, 2>> triangle_pairs = overlapping_pairs(tb, &group);
+  list_groups_ = std::move(group);
   const std::size_t grain = 4096;
   std::vector<std::vector<Pair>> found((triangle_pairs.size() + grain - 1) / grain);
   tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t chunk) {
@@ -537,6 +552,144 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const P
   list_size_ = candidates_.size();
   index_valid_ = false;
   local_.assign(at(body.num_elements()), 0);
+  return true;
+}
+
+bool SelfCollisions::extend_list(const Body& body, const Points& ds, double thickness, SelfCollisionStats& stats) {
+  // A list that a few vertices outran (the armadillo grate's: a median of
+  // 17 of 26k vertices, by a median of 1.17 times their margin) is kept:
+  // each of them gets the margin a build would give it now, on top of its
+  // drift since the build (d + max(a tenth of the mean edge, four times its
+  // motion over this step relative to its cluster's)), its primitives'
+  // boxes grow to match, and the pairs holding it are listed as a build
+  // with those margins would list them: every pair the wider boxes reach
+  // lies under a pair of triangles of which one holds such a vertex (the
+  // owner of its vertex or edge, or its triangle), so only those are
+  // paired with the others. Pairs without such a vertex keep their boxes
+  // and their place on the list or off it. The clusters' frames stay; a
+  // cluster whose largest margin grew has its far allowances taken again
+  // (set_frames), and the list is built anew if its clusters have parted
+  // past one of them, if too many vertices outran it, or after
+  // kMaxExtensions extensions.
+  constexpr int kMaxExtensions = 16;
+  constexpr Index kMaxShare = 32;  // at most one vertex in this many
+  const auto nv = static_cast<Index>(list_positions_.rows());
+  const Triangles& tris = body.surface_triangles;
+  const auto nt = static_cast<Index>(tris.rows());
+  if (extensions_ >= kMaxExtensions) return false;
+  std::vector<Index> over;
+  for (Index v = 0; v < nv; ++v)
+    if (!(drift_[at(v)] <= margin_[at(v)])) over.push_back(v);
+  if (static_cast<Index>(over.size()) > nv / kMaxShare) return false;
+  std::vector<std::uint8_t> widened(at(nv), 0);
+  for (const Index v : over) {
+    const Index c = cluster_[at(v)];
+    const double motion = (ds.row(v) - (cluster_motion_[1].row(c) - cluster_motion_[0].row(c))).cwiseAbs().maxCoeff();
+    margin_[at(v)] = drift_[at(v)] + std::max(0.1 * list_edge_length_, 4.0 * motion);
+    widened[at(v)] = 1;
+  }
+  // The clusters' largest margins (set_frames: per triangle, its corners'
+  // largest, to each corner's cluster) and the far allowances they bound.
+  const Index nc = clusters_;
+  std::vector<Index> wide;  // the triangles with a widened corner, ascending
+  std::vector<std::uint8_t> raised(at(nc), 0);
+  for (Index t = 0; t < nt; ++t) {
+    if (!(widened[at(tris(t, 0))] || widened[at(tris(t, 1))] || widened[at(tris(t, 2))])) continue;
+    wide.push_back(t);
+    const double m = std::max({margin_[at(tris(t, 0))], margin_[at(tris(t, 1))], margin_[at(tris(t, 2))]});
+    for (int k = 0; k < 3; ++k) {
+      const Index c = cluster_[at(tris(t, k))];
+      if (m > largest_[at(c)]) largest_[at(c)] = m, raised[at(c)] = 1;
+    }
+  }
+  for (Index a = 0; a < nc; ++a)
+    for (Index b = a + 1; b < nc; ++b) {
+      if (!raised[at(a)] && !raised[at(b)]) continue;
+      double& allowed = allowance_[at(a * nc + b)];
+      allowed = std::min(allowed, allowance(a, b, thickness));
+      if (!((cluster_motion_[0].row(a) - cluster_motion_[0].row(b)).cwiseAbs().maxCoeff() <= allowed &&
+            (cluster_motion_[1].row(a) - cluster_motion_[1].row(b)).cwiseAbs().maxCoeff() <= allowed))
+        return false;  // parted past it: built anew
+    }
+  // The wider boxes, at the build's places, as find_candidates makes them.
+  std::vector<Box3>&vb = vertex_boxes_, &tb = triangle_boxes_, &eb = edge_boxes_;
+  for (const Index v : over) {
+    reach_margin_[at(v)] = margin_[at(v)] + slack_[at(cluster_[at(v)])];
+    vb[at(v)] = grown(Box3(list_positions_.row(v).transpose(), list_positions_.row(v).transpose()),
+                          reach_margin_[at(v)] + 0.5 * kReported * thickness);
+  }
+  for (const Index t : wide) tb[at(t)] = Box3(vb[at(tris(t, 0))]).extend(vb[at(tris(t, 1))]).extend(vb[at(tris(t, 2))]);
+  for (std::size_t e = 0; e < edges_.size(); ++e)
+    if (widened[at(edges_[e][0])] || widened[at(edges_[e][1])])
+      eb[e] = Box3(vb[at(edges_[e][0])]).extend(vb[at(edges_[e][1])]);
+  // Each triangle against the grown ones, found through their lower x
+  // (sorted): a pair of two grown triangles once, under the higher.
+  std::vector<std::uint8_t> is_wide(at(nt), 0);
+  for (const Index t : wide) is_wide[at(t)] = 1;
+  std::vector<Index> by_x = wide;
+  std::stable_sort(by_x.begin(), by_x.end(), [&](Index a, Index b) { return tb[at(a)].min().x() < tb[at(b)].min().x(); });
+  std::vector<double> lower(by_x.size());
+  double widest = 0.0;
+  for (std::size_t k = 0; k < by_x.size(); ++k) {
+    lower[k] = tb[at(by_x[k])].min().x();
+    widest = std::max(widest, tb[at(by_x[k])].sizes().x());
+  }
+  const Index nn = body.num_nodes();
+  constexpr Index kChunk = 2048;
+  std::vector<std::vector<Pair>> found(at((nt + kChunk - 1) / kChunk));
+  tbb::parallel_for(std::size_t{0}, found.size(), [&](std::size_t chunk) {
+    std::vector<Pair>& out = found[chunk];
+    std::vector<Pair> expanded;
+    std::vector<Index> partners;
+    for (Index t = static_cast<Index>(chunk) * kChunk; t < std::min(nt, static_cast<Index>(chunk + 1) * kChunk); ++t) {
+      const Box3& box = tb[at(t)];
+      partners.clear();
+      for (auto k = std::size_t(std::lower_bound(lower.begin(), lower.end(), box.min().x() - widest) - lower.begin());
+           k < lower.size() && lower[k] <= box.max().x(); ++k) {
+        const Index g = by_x[k];
+        if (g == t || (is_wide[at(t)] && g > t) || !tb[at(g)].intersects(box)) continue;
+        const Index group = list_groups_[at(g)];
+        if (group >= 0 && group == list_groups_[at(t)] && (group >= nn || !stars_.returned(g, t))) continue;
+        partners.push_back(g);
+      }
+      std::sort(partners.begin(), partners.end());  // one order, whatever the boxes' places
+      for (const Index g : partners) {
+        expanded.clear();
+        expand(body, std::min(g, t), std::max(g, t), list_positions_, thickness, expanded);
+        for (const Pair& p : expanded)
+          if (widened[at(p.vertices[0])] || widened[at(p.vertices[1])] || widened[at(p.vertices[2])] ||
+              widened[at(p.vertices[3])])
+            out.push_back(p);
+      }
+    }
+  });
+  // Those listed already (found before by a build or a calm group's
+  // return) stay where they are.
+  auto key = [](const Pair& p) { return std::tie(p.kind, p.vertices); };
+  std::vector<std::size_t> listed;
+  for (std::size_t i = 0; i < list_size_; ++i) {
+    const Pair& p = candidates_[i];
+    if (widened[at(p.vertices[0])] || widened[at(p.vertices[1])] || widened[at(p.vertices[2])] ||
+        widened[at(p.vertices[3])])
+      listed.push_back(i);
+  }
+  std::sort(listed.begin(), listed.end(),
+            [&](std::size_t a, std::size_t b) { return key(candidates_[a]) < key(candidates_[b]); });
+  drop_local_pairs();  // appended again after (add_local_pairs)
+  std::vector<Pair> added;
+  for (const auto& f : found)
+    for (const Pair& p : f) {
+      const auto at_or_after = std::lower_bound(listed.begin(), listed.end(), p, [&](std::size_t i, const Pair& q) {
+        return key(candidates_[i]) < key(q);
+      });
+      if (at_or_after == listed.end() || key(candidates_[*at_or_after]) != key(p)) added.push_back(p);
+    }
+  candidates_.insert(candidates_.end(), added.begin(), added.end());
+  list_size_ = candidates_.size();
+  clearance_.resize(list_size_, -std::numeric_limits<double>::infinity());
+  changed_at_.resize(list_size_);
+  ++extensions_;
+  ++stats.list_extensions;
   return true;
 }
 

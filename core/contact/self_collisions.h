@@ -10,6 +10,7 @@
 // surface points reaches the nodes as the quantity Wᵀ J (each node i gets
 // its share c_i J and moves by c_i J / m_i), so the total momentum does not
 // change (Σ c_i = 0 for the two sides of a pair).
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -30,13 +31,14 @@ struct SelfCollisionStats {
   Index zone_nodes = 0;         ///< nodes moved rigidly by the fail-safe
   Index touching_at_start = 0;  ///< pairs at distance 0 when the step began (left alone)
   Index list_builds = 0;        ///< broad phases run (a candidate list is kept while it holds)
+  Index list_extensions = 0;    ///< lists kept by widening the margins of the few vertices past theirs
   std::int64_t listed = 0;      ///< pairs on the list at each step's first detection, summed over steps
   Index waited = 0;             ///< steps left alone: an element was inverted
 
   SelfCollisionStats& operator+=(const SelfCollisionStats& o) {
     candidates += o.candidates, repulsions += o.repulsions, impacts += o.impacts, rounds += o.rounds;
     zone_rounds += o.zone_rounds, zone_nodes += o.zone_nodes, touching_at_start += o.touching_at_start;
-    list_builds += o.list_builds, listed += o.listed, waited += o.waited;
+    list_builds += o.list_builds, list_extensions += o.list_extensions, listed += o.listed, waited += o.waited;
     return *this;
   }
 };
@@ -147,8 +149,20 @@ class SelfCollisions {
   /// Whether the list still holds all the pairs that can come within the
   /// reporting distance: each vertex within its margin of its cluster's
   /// motion, and every two clusters within their allowance, at the step's
-  /// start xs0 and end xs0 + ds. Sets drift_.
-  bool list_holds(const Points& xs0, const Points& ds);
+  /// start xs0 and end xs0 + ds. Sets drift_ (every vertex's) and
+  /// cluster_motion_.
+  enum class ListCheck { holds, vertices_past_margins, clusters_parted };
+  ListCheck list_holds(const Points& xs0, const Points& ds);
+  /// Keeps a list whose clusters hold but a few of whose vertices drifted
+  /// past their margins: widens those margins, grows their primitives'
+  /// boxes and lists the pairs the wider boxes reach, as a build with those
+  /// margins would. Returns false (nothing listed; a build follows) when
+  /// the vertices are too many or a wider margin breaks a far allowance.
+  bool extend_list(const Body& body, const Points& ds, double thickness, SelfCollisionStats& stats);
+  /// The allowance of clusters a < b: their slacks, or what keeps any two
+  /// primitives of theirs beyond the reporting distance when their hulls
+  /// lie far apart (set_frames).
+  [[nodiscard]] double allowance(Index a, Index b, double thickness) const;
   /// Splits the surface at xs0 into clusters: cluster_, clusters_, cluster_size_.
   void make_clusters(const Points& xs0);
   /// The list's margins, slacks and allowances for a build at xs0, the
@@ -261,6 +275,13 @@ class SelfCollisions {
   std::vector<double> allowance_;     // clusters_ × clusters_ (a < b: [a × clusters_ + b])
   std::vector<double> slack_;         // per cluster
   std::vector<double> reach_margin_;  // per vertex: its margin and its cluster's slack (the boxes' growth)
+  std::vector<Box3> hull_;            // per cluster: the build's triangles with a corner in it
+  std::vector<double> largest_;       // per cluster: the largest margin of a corner of those triangles
+  std::vector<double> near_;          // per cluster: its slack and the largest of a cluster sharing a triangle with it
+  std::array<Points, 2> cluster_motion_;  // per cluster, its mean motion since the build at the step's start and end (list_holds)
+  std::vector<Index> list_groups_;    // per triangle, its group at the build (overlapping_pairs pairs none within one)
+  double list_edge_length_ = 0.0;     // the mean edge at the build
+  int extensions_ = 0;                // extend_list's since the build
   bool list_valid_ = false;
 };
 
