@@ -168,6 +168,20 @@ Box3 grown(Box3 b, double by) {
   return b;
 }
 
+/// The list's boxes: a vertex's, its place xs at the build grown by its
+/// reach margin and half the reporting distance (boxes that stay apart
+/// keep their primitives more than 2δ apart while the list holds); a
+/// triangle's and an edge's, those of their corners together.
+Box3 vertex_box(const Points& xs, Index v, double reach_margin, double thickness) {
+  return grown(Box3(xs.row(v).transpose(), xs.row(v).transpose()), reach_margin + 0.5 * kReported * thickness);
+}
+Box3 triangle_box(const std::vector<Box3>& vb, const Triangles& tris, Index t) {
+  return Box3(vb[at(tris(t, 0))]).extend(vb[at(tris(t, 1))]).extend(vb[at(tris(t, 2))]);
+}
+Box3 edge_box(const std::vector<Box3>& vb, const std::array<Index, 2>& e) {
+  return Box3(vb[at(e[0])]).extend(vb[at(e[1])]);
+}
+
 /// Moves a zone's nodes rigidly: the mass-weighted mean displacement and the
 /// rotation that keeps the angular momentum of the displacements (Bridson
 /// et al. 2002, sec. 7.4). x ↦ x + u + ω × (x − c) is affine with
@@ -497,18 +511,9 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const P
   vb.resize(at(nv));
   tb.resize(at(nt));
   eb.resize(edges_.size());
-  // Grown by half the reporting distance too: boxes that stay apart keep
-  // their primitives more than 2δ apart while the list holds.
-  for_each_index(nv, [&](Index v) {
-    vb[at(v)] = grown(Box3(xs0.row(v).transpose(), xs0.row(v).transpose()),
-                      reach_margin_[at(v)] + 0.5 * kReported * thickness);
-  });
-  for_each_index(nt, [&](Index t) {
-    tb[at(t)] = Box3(vb[at(tris(t, 0))]).extend(vb[at(tris(t, 1))]).extend(vb[at(tris(t, 2))]);
-  });
-  for_each_index(static_cast<Index>(edges_.size()), [&](Index e) {
-    eb[at(e)] = Box3(vb[at(edges_[at(e)][0])]).extend(vb[at(edges_[at(e)][1])]);
-  });
+  for_each_index(nv, [&](Index v) { vb[at(v)] = vertex_box(xs0, v, reach_margin_[at(v)], thickness); });
+  for_each_index(nt, [&](Index t) { tb[at(t)] = triangle_box(vb, tris, t); });
+  for_each_index(static_cast<Index>(edges_.size()), [&](Index e) { eb[at(e)] = edge_box(vb, edges_[at(e)]); });
   list_positions_ = xs0;
   list_parents_ = body.embedding.parent;
   list_valid_ = true;
@@ -582,6 +587,10 @@ bool SelfCollisions::extend_list(const Body& body, const Points& ds, double thic
     if (!(drift_[at(v)] <= margin_[at(v)])) over.push_back(v);
   if (static_cast<Index>(over.size()) > nv / kMaxShare) return false;
   std::vector<std::uint8_t> widened(at(nv), 0);
+  auto holds_widened = [&](const Pair& p) {
+    return widened[at(p.vertices[0])] || widened[at(p.vertices[1])] || widened[at(p.vertices[2])] ||
+           widened[at(p.vertices[3])];
+  };
   for (const Index v : over) {
     const Index c = cluster_[at(v)];
     const double motion = (ds.row(v) - (cluster_motion_[1].row(c) - cluster_motion_[0].row(c))).cwiseAbs().maxCoeff();
@@ -615,13 +624,11 @@ bool SelfCollisions::extend_list(const Body& body, const Points& ds, double thic
   std::vector<Box3>&vb = vertex_boxes_, &tb = triangle_boxes_, &eb = edge_boxes_;
   for (const Index v : over) {
     reach_margin_[at(v)] = margin_[at(v)] + slack_[at(cluster_[at(v)])];
-    vb[at(v)] = grown(Box3(list_positions_.row(v).transpose(), list_positions_.row(v).transpose()),
-                          reach_margin_[at(v)] + 0.5 * kReported * thickness);
+    vb[at(v)] = vertex_box(list_positions_, v, reach_margin_[at(v)], thickness);
   }
-  for (const Index t : wide) tb[at(t)] = Box3(vb[at(tris(t, 0))]).extend(vb[at(tris(t, 1))]).extend(vb[at(tris(t, 2))]);
+  for (const Index t : wide) tb[at(t)] = triangle_box(vb, tris, t);
   for (std::size_t e = 0; e < edges_.size(); ++e)
-    if (widened[at(edges_[e][0])] || widened[at(edges_[e][1])])
-      eb[e] = Box3(vb[at(edges_[e][0])]).extend(vb[at(edges_[e][1])]);
+    if (widened[at(edges_[e][0])] || widened[at(edges_[e][1])]) eb[e] = edge_box(vb, edges_[e]);
   // Each triangle against the grown ones, found through their lower x
   // (sorted): a pair of two grown triangles once, under the higher.
   std::vector<std::uint8_t> is_wide(at(nt), 0);
@@ -657,9 +664,7 @@ bool SelfCollisions::extend_list(const Body& body, const Points& ds, double thic
         expanded.clear();
         expand(body, std::min(g, t), std::max(g, t), list_positions_, thickness, expanded);
         for (const Pair& p : expanded)
-          if (widened[at(p.vertices[0])] || widened[at(p.vertices[1])] || widened[at(p.vertices[2])] ||
-              widened[at(p.vertices[3])])
-            out.push_back(p);
+          if (holds_widened(p)) out.push_back(p);
       }
     }
   });
@@ -667,12 +672,8 @@ bool SelfCollisions::extend_list(const Body& body, const Points& ds, double thic
   // return) stay where they are.
   auto key = [](const Pair& p) { return std::tie(p.kind, p.vertices); };
   std::vector<std::size_t> listed;
-  for (std::size_t i = 0; i < list_size_; ++i) {
-    const Pair& p = candidates_[i];
-    if (widened[at(p.vertices[0])] || widened[at(p.vertices[1])] || widened[at(p.vertices[2])] ||
-        widened[at(p.vertices[3])])
-      listed.push_back(i);
-  }
+  for (std::size_t i = 0; i < list_size_; ++i)
+    if (holds_widened(candidates_[i])) listed.push_back(i);
   std::sort(listed.begin(), listed.end(),
             [&](std::size_t a, std::size_t b) { return key(candidates_[a]) < key(candidates_[b]); });
   drop_local_pairs();  // appended again after (add_local_pairs)
