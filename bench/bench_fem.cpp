@@ -3,11 +3,13 @@
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
+#include <chrono>
 #include <random>
 
 #include "core/body.h"
 #include "core/damping.h"
 #include "core/elastic_forces.h"
+#include "core/parallel.h"
 #include "core/svd3.h"
 #include "core/svd3_batch.h"
 #include "core/volume_projection.h"
@@ -204,6 +206,45 @@ void BM_VolumeProjection(benchmark::State& state) {
   state.counters["cg_iterations"] = iterations;
   state.counters["threads"] = static_cast<double>(threads);
 }
-BENCHMARK(BM_VolumeProjection)->Args({12, 2})->Args({20, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_VolumeProjection)->Args({12, 1})->Args({12, 2})->Args({20, 1})->Args({20, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
+
+
+/// A pass of the projection's size (per element of a 12-cell box, 10,368
+/// tets: the sum of its four nodes' values) right after `gap` µs of serial
+/// work on the calling thread; only the pass is timed. args: gap (µs),
+/// threads. A worker left idle for more than about 200 µs sleeps, and
+/// waking it costs more than such a pass: a step's loops that follow its
+/// serial parts gain nothing from a second thread (docs/benchmarks.md,
+/// "A second thread after a serial gap").
+void BM_LoopAfterSerialGap(benchmark::State& state) {
+  const auto gap = std::chrono::microseconds(state.range(0));
+  const auto threads = static_cast<std::size_t>(state.range(1));
+  const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+  const goo::Body body = moved_box(12, 0.0, true);
+  const Eigen::VectorXd values = Eigen::VectorXd::LinSpaced(body.num_nodes(), 0.0, 1.0);
+  Eigen::VectorXd sums(body.num_elements());
+  auto pass = [&] {
+    goo::for_each_index(body.num_elements(), [&](goo::Index e) {
+      double s = 0.0;
+      for (int k = 0; k < 4; ++k) s += values[body.tets(e, k)];
+      sums[e] = 0.25 * s;
+    });
+  };
+  for (int k = 0; k < 10; ++k) pass();
+  for (auto _ : state) {
+    const auto until = std::chrono::steady_clock::now() + gap;
+    while (std::chrono::steady_clock::now() < until) benchmark::DoNotOptimize(sums.data());
+    const auto start = std::chrono::steady_clock::now();
+    pass();
+    state.SetIterationTime(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    benchmark::DoNotOptimize(sums.data());
+  }
+  state.counters["tets"] = static_cast<double>(body.num_elements());
+  state.counters["threads"] = static_cast<double>(threads);
+}
+BENCHMARK(BM_LoopAfterSerialGap)
+    ->ArgsProduct({{0, 100, 300, 1000}, {1, 2}})
+    ->UseManualTime()
+    ->Unit(benchmark::kMicrosecond);
 
 }  // namespace
