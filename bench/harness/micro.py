@@ -4,7 +4,7 @@ import re
 
 from common import log, run, table, write_csv, write_json
 
-QUICK = ("BM_Svd3$|BM_Svd3Batch/|BM_ElasticForces/12/|BM_DampingApply/12/|BM_DampingApplyModel/0/10/|BM_VolumeProjection/12/|BM_SurfaceTension/0/|BM_Collisions/|BM_FloorContact/|BM_AssembleHessian/10/|"
+QUICK = ("BM_Svd3$|BM_Svd3Batch/|BM_ElasticForces/12/|BM_DampingApply/12/|BM_DampingApplyModel/0/10/|BM_VolumeProjection/12/|BM_LoopAfterSerialGap/|BM_SurfaceTension/0/|BM_Collisions/|BM_FloorContact/|BM_AssembleHessian/10/|"
          "BM_CholmodFactor/10/|BM_CholmodSolve/10/|BM_(Voxelize|BuildTets|Embed|ExactMass|Transfer|Remesh|SurfaceUpkeep)/0/8$")
 
 
