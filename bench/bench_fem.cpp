@@ -206,16 +206,21 @@ void BM_VolumeProjection(benchmark::State& state) {
   state.counters["cg_iterations"] = iterations;
   state.counters["threads"] = static_cast<double>(threads);
 }
-BENCHMARK(BM_VolumeProjection)->Args({12, 1})->Args({12, 2})->Args({20, 1})->Args({20, 2})->Unit(benchmark::kMillisecond)->UseRealTime();
-
+BENCHMARK(BM_VolumeProjection)
+    ->Args({12, 1})
+    ->Args({12, 2})
+    ->Args({20, 1})
+    ->Args({20, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 /// A pass of the projection's size (per element of a 12-cell box, 10,368
 /// tets: the sum of its four nodes' values) right after `gap` µs of serial
 /// work on the calling thread; only the pass is timed. args: gap (µs),
 /// threads. A worker left idle for more than about 200 µs sleeps, and
-/// waking it costs more than such a pass: a step's loops that follow its
-/// serial parts gain nothing from a second thread (docs/benchmarks.md,
-/// "A second thread after a serial gap").
+/// waking it costs more than such a pass: after a longer serial stretch
+/// the pass runs slower on two threads than on one (docs/benchmarks.md,
+/// session 34).
 void BM_LoopAfterSerialGap(benchmark::State& state) {
   const auto gap = std::chrono::microseconds(state.range(0));
   const auto threads = static_cast<std::size_t>(state.range(1));
