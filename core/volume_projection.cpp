@@ -224,13 +224,8 @@ void VolumeProjection::free_direction(Index n, Eigen::Vector3d& y) const {
   y *= inverse_mass_[n];
 }
 
-void VolumeProjection::move(const Body& body, const Eigen::VectorXd& lambda) {
-  transpose_product(body, lambda, direction_);
-  for_each_index(body.num_nodes(), [&](Index n) {
-    Eigen::Vector3d y = direction_.row(n).transpose();
-    free_direction(n, y);
-    direction_.row(n) = y.transpose();
-  });
+void VolumeProjection::move(const Eigen::VectorXd& lambda) {
+  directions(lambda);
 }
 
 void VolumeProjection::add_pressure_forces(const Body& body, const Points& x, Points& forces) {
@@ -250,28 +245,31 @@ void VolumeProjection::carry(const Body& body, const Eigen::VectorXd& lambda, do
       pressure_[n] += scale * lambda[n];
 }
 
-// y = M⁻¹ P Gᵀλ as move() (its store fused into the gather), then per
-// element s_e = Σ_k ∂V_e/∂x_k · y_{n_k} and (Aλ)_i = ¼ Σ_{e∋i} s_e.
+void VolumeProjection::directions(const Eigen::VectorXd& lambda) {
+  const Neighbourhoods& h = neighbourhoods_;
+  const auto nn = static_cast<Index>(h.offsets.size() - 1);
+  direction_.resize(nn, 3);
+  for_each_index(nn, [&](Index j) {
+    Eigen::Vector3d y = Eigen::Vector3d::Zero();
+    for (Index k = h.offsets[at(j)]; k < h.offsets[at(j) + 1]; ++k) y += lambda[h.nodes[at(k)]] * columns_[at(k)];
+    if (sliding(j)) y = sliding_->free[at(j)] * y;
+    direction_.row(j) = (inverse_mass_[j] * y).transpose();
+  });
+}
+
+// y = M⁻¹ P Gᵀλ as move(), then (Aλ)_i = Σ_{j∈N(i)} G_ij · y_j: two passes
+// over the nodes.
 void VolumeProjection::apply(const Body& body, const Eigen::VectorXd& lambda, Eigen::VectorXd& out) {
-  const NodeIncidence& incidence = body.incidence;
-  element_lambdas(body, lambda);
-  direction_.resize(body.num_nodes(), 3);
-  gather_scaled_to_nodes(incidence, corner_gradient_, element_lambda_, [&](Index n, const Eigen::Vector3d& sum) {
-    Eigen::Vector3d y = sum;
-    free_direction(n, y);
-    direction_.row(n) = y.transpose();
-  });
-  const Index ne = body.num_elements();
-  element_sum_.resize(ne);
-  for_each_index(ne, [&](Index e) {
-    double s = 0.0;
-    for (int k = 0; k < 4; ++k) s += gradient_[at(e)].col(k).dot(direction_.row(body.tets(e, k)).transpose());
-    element_sum_[e] = s;
-  });
+  const Neighbourhoods& h = neighbourhoods_;
+  directions(lambda);
   out.resize(body.num_nodes());
-  sum_over_corners(
-      incidence, 0.0, [&](Index corner) { return element_sum_[corner / 4]; },
-      [&](Index n, double sum) { out[n] = active_[at(n)] ? 0.25 * sum : 0.0; });
+  for_each_index(body.num_nodes(), [&](Index i) {
+    double s = 0.0;
+    if (active_[at(i)])
+      for (Index k = h.offsets[at(i)]; k < h.offsets[at(i) + 1]; ++k)
+        s += rows_[at(k)].dot(direction_.row(h.nodes[at(k)]).transpose());
+    out[i] = s;
+  });
 }
 
 bool VolumeProjection::Prepared::same(const Body& body, const Points& at_positions,
@@ -284,14 +282,12 @@ bool VolumeProjection::Prepared::same(const Body& body, const Points& at_positio
 bool VolumeProjection::update_neighbourhoods(const Body& body) {
   Neighbourhoods& h = neighbourhoods_;
   if (h.tets.rows() == body.tets.rows() && h.tets == body.tets) return false;
-  constexpr std::size_t kMostNeighbours = 64;
   const Index nn = body.num_nodes();
   const NodeIncidence& incidence = body.incidence;
   h.tets = body.tets;
   h.offsets.assign(at(nn) + 1, 0);
   h.nodes.clear();
   h.slots.assign(4 * incidence.corners.size(), -1);
-  h.overflow.assign(at(nn), 0);
   for (Index i = 0; i < nn; ++i) {
     const std::size_t first = h.nodes.size();
     for (Index c = incidence.offsets[at(i)]; c < incidence.offsets[at(i) + 1]; ++c) {
@@ -300,13 +296,7 @@ bool VolumeProjection::update_neighbourhoods(const Body& body) {
         const Index j = body.tets(e, k);
         std::size_t slot = first;
         while (slot < h.nodes.size() && h.nodes[slot] != j) ++slot;
-        if (slot == h.nodes.size()) {
-          if (slot - first == kMostNeighbours) {
-            h.overflow[at(i)] = 1;
-            continue;
-          }
-          h.nodes.push_back(j);
-        }
+        if (slot == h.nodes.size()) h.nodes.push_back(j);
         h.slots[4 * at(c) + static_cast<std::size_t>(k)] = static_cast<Index>(slot - first);
       }
     }
@@ -380,27 +370,46 @@ void VolumeProjection::prepare_anew(const Body& body, const Points& at_positions
   active_.assign(at(nn), 0);
   diagonal_.resize(nn);
   const Neighbourhoods& h = neighbourhoods_;
+  rows_.resize(h.nodes.size());
+  columns_.resize(h.nodes.size());
   for_each_index(nn, [&](Index i) {
-    std::array<Eigen::Vector3d, 64> local;
     const Index first = h.offsets[at(i)], used = h.offsets[at(i) + 1] - first;
-    for (Index k = 0; k < used; ++k) local[at(k)].setZero();
-    double scale = 0.0;
-    for (Index c = body.incidence.offsets[at(i)]; c < body.incidence.offsets[at(i) + 1]; ++c) {
-      const Index e = body.incidence.corners[at(c)] / 4;
-      for (int k = 0; k < 4; ++k) {
-        const Index j = body.tets(e, k);
-        const Eigen::Vector3d g = 0.25 * gradient_[at(e)].col(k);
-        scale += (sliding(j) ? (sliding_->free[at(j)] * g).squaredNorm() : g.squaredNorm()) * inverse_mass_[j];
-        if (const Index slot = h.slots[4 * at(c) + static_cast<std::size_t>(k)]; slot >= 0) local[at(slot)] += g;
+    double scale = 0.0, a = 0.0;
+    // Node i's entries gathered apart from the arrays they read (on the
+    // stack where they fit), then stored: G_ij (row i) and G_ji (i's own
+    // gradient in the elements it shares with j).
+    const auto gather = [&](auto& row, auto& column) {
+      for (Index k = 0; k < used; ++k) {
+        row[at(k)].setZero();
+        column[at(k)].setZero();
       }
+      for (Index c = body.incidence.offsets[at(i)]; c < body.incidence.offsets[at(i) + 1]; ++c) {
+        const Index corner = body.incidence.corners[at(c)], e = corner / 4;
+        const Eigen::Vector3d own = 0.25 * gradient_[at(e)].col(corner % 4);
+        for (int k = 0; k < 4; ++k) {
+          const Index j = body.tets(e, k);
+          const Eigen::Vector3d g = 0.25 * gradient_[at(e)].col(k);
+          scale += (sliding(j) ? (sliding_->free[at(j)] * g).squaredNorm() : g.squaredNorm()) * inverse_mass_[j];
+          const auto slot = at(h.slots[4 * at(c) + static_cast<std::size_t>(k)]);
+          row[slot] += g;
+          column[slot] += own;
+        }
+      }
+      for (Index k = 0; k < used; ++k) {  // |P_j G_ij|² / m_j
+        const Index j = h.nodes[at(first + k)];
+        const Eigen::Vector3d g = sliding(j) ? Eigen::Vector3d(sliding_->free[at(j)] * row[at(k)]) : row[at(k)];
+        a += g.squaredNorm() * inverse_mass_[j];
+      }
+      std::copy(row.begin(), row.begin() + used, rows_.begin() + first);
+      std::copy(column.begin(), column.begin() + used, columns_.begin() + first);
+    };
+    if (used <= 64) {
+      std::array<Eigen::Vector3d, 64> row, column;
+      gather(row, column);
+    } else {
+      std::vector<Eigen::Vector3d> row(at(used)), column(at(used));
+      gather(row, column);
     }
-    double a = 0.0;
-    for (Index k = 0; k < used; ++k) {  // |P_j G_ij|² / m_j
-      const Index j = h.nodes[at(first + k)];
-      const Eigen::Vector3d g = sliding(j) ? Eigen::Vector3d(sliding_->free[at(j)] * local[at(k)]) : local[at(k)];
-      a += g.squaredNorm() * inverse_mass_[j];
-    }
-    if (h.overflow[at(i)]) a = scale;  // more than 64 neighbours: a bound, still positive
     const bool on = a > 1e-10 * scale && node_rest_[i] > 0.0;
     active_[at(i)] = on ? 1 : 0;
     diagonal_[i] = on ? a : 1.0;
@@ -509,7 +518,7 @@ VolumeProjectionStats VolumeProjection::project(Body& body, const Points& start,
       // Inexact: a tenth of the drift is left for the iterations below.
       stats.cg_iterations += solve(body, error_, std::max(0.25 * settings_.tolerance, 0.1 * drift), lambda_);
       if (lambda_.allFinite()) {
-        move(body, lambda_);
+        move(lambda_);
         body.positions -= direction_;
       }
     }
@@ -562,7 +571,7 @@ VolumeProjectionStats VolumeProjection::project(Body& body, const Points& start,
     // tolerance.
     stats.cg_iterations += solve(body, error_, std::max(0.25 * settings_.tolerance, 0.1 * error), lambda_);
     if (!lambda_.allFinite()) break;
-    move(body, lambda_);
+    move(lambda_);
     body.positions -= direction_;
     body.velocities -= direction_ / dt;
     total += lambda_;
@@ -609,7 +618,7 @@ VolumeProjectionStats VolumeProjection::restore(Body& body, const std::vector<st
     stats.newton_iterations = iteration + 1;
     if (!lambda_.allFinite()) break;
     if (iteration == 0) restore_start_ = lambda_;
-    move(body, lambda_);
+    move(lambda_);
     body.positions -= direction_;
   }
   sliding_ = nullptr;

@@ -9,7 +9,8 @@
 // positions x are known, they move by
 //   Δx = −M⁻¹ Gᵀ λ,  (G M⁻¹ Gᵀ) λ = V(x) − V̄,  G = ∂V/∂x at xⁿ,
 // (a pressure impulse λ / Δt on each node; Δv = Δx / Δt), solved by
-// Jacobi-preconditioned conjugate gradients, matrix-free, repeated while the
+// Jacobi-preconditioned conjugate gradients (A never formed: G's 3-vector
+// blocks G_ij, one per pair of nodes sharing an element), repeated while the
 // non-linear constraint is not met (a chord method: G stays the one at the
 // step's start, about which each element's impulses exert no torque, so the
 // projection conserves linear and angular momentum exactly). One constraint
@@ -152,7 +153,7 @@ class VolumeProjection {
   void apply(const Body& body, const Eigen::VectorXd& lambda, Eigen::VectorXd& out);
   /// y ← M⁻¹ P y at node n: along its free directions (sliding), by its inverse mass.
   void free_direction(Index n, Eigen::Vector3d& y) const;
-  void move(const Body& body, const Eigen::VectorXd& lambda);
+  void move(const Eigen::VectorXd& lambda);
   /// The carried pressures += scale × λ (sized to the body first).
   void carry(const Body& body, const Eigen::VectorXd& lambda, double scale);
 
@@ -201,15 +202,21 @@ class VolumeProjection {
     [[nodiscard]] bool same(const Body& body, const Points& at_positions, const std::vector<std::uint8_t>& fixed) const;
   } prepared_;
   /// Each node's distinct neighbours (itself included), in the order its
-  /// incidence first meets them (at most 64; `overflow` past that), and the
-  /// neighbour slot of every corner k of every incident element (−1 where
-  /// it overflowed): the preconditioner's diagonal gathers without a search.
-  /// Made once per mesh (the tets they were made for).
+  /// incidence first meets them (entries offsets[i] … offsets[i + 1] − 1),
+  /// and the neighbour slot of every corner k of every incident element:
+  /// G's entries gather without a search. Made once per mesh (the tets
+  /// they were made for).
   struct Neighbourhoods {
     Tets tets;
     std::vector<Index> offsets, nodes, slots;
-    std::vector<std::uint8_t> overflow;
   } neighbourhoods_;
+  /// At node i's entry for neighbour j, as prepared: G_ij = ¼ Σ_{e∋i,j}
+  /// ∂V_e/∂x_j (`rows_`) and G_ji (`columns_`, i's own gradient in the
+  /// elements the two share). Gᵀλ and G y are then one pass over the nodes
+  /// each, every node summing its own entries in order.
+  std::vector<Eigen::Vector3d> rows_, columns_;
+  /// direction_ = M⁻¹ P Gᵀ λ from the prepared G (columns_).
+  void directions(const Eigen::VectorXd& lambda);
   /// Rebuilds neighbourhoods_ if the mesh changed; true if it did.
   bool update_neighbourhoods(const Body& body);
   double last_residual_ = 0.0;

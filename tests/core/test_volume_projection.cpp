@@ -427,6 +427,48 @@ TEST(VolumeProjection, TheVelocityProjectionReusesTheForcesGradientOnlyWhereNoth
   }
 }
 
+TEST(VolumeProjection, ANodeWithMoreThanSixtyFourNeighboursIsHeldLikeAnyOther) {
+  // A fan of 2 × 70 tets about the z axis: the centre node shares an element
+  // with all 72 other nodes (the projection gathers a row of more than 64
+  // neighbours apart from the others).
+  constexpr int kSectors = 70;
+  TetMesh fan;
+  fan.positions.resize(kSectors + 3, 3);
+  fan.positions.row(0) << 0.0, 0.0, 0.0;
+  fan.positions.row(1) << 0.0, 0.0, 0.05;
+  fan.positions.row(2) << 0.0, 0.0, -0.05;
+  for (int k = 0; k < kSectors; ++k) {
+    const double angle = 2.0 * M_PI * k / kSectors;
+    fan.positions.row(3 + k) << 0.1 * std::cos(angle), 0.1 * std::sin(angle), 0.0;
+  }
+  fan.tets.resize(2 * kSectors, 4);
+  for (int k = 0; k < kSectors; ++k) {
+    const int a = 3 + k, b = 3 + (k + 1) % kSectors;
+    fan.tets.row(2 * k) << 0, a, b, 1;
+    fan.tets.row(2 * k + 1) << 0, b, a, 2;
+  }
+  Material m;
+  m.incompressible = true;
+  Body body = make_body(fan, m);
+  ASSERT_GT(body.rest_volumes.minCoeff(), 0.0) << "the fan's tets must be positively oriented";
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const Points start = body.positions;
+  const double dt = 1e-3;
+  for (Index n = 0; n < body.num_nodes(); ++n) body.velocities.row(n) << u(rng), u(rng), u(rng);
+  body.velocities *= 0.002 / dt;  // up to 2 mm a step: a tenth of the fan's height is 5 mm
+  body.positions = start + dt * body.velocities;
+  const double before = max_nodal_volume_error(body, body.positions);
+  ASSERT_GT(before, 10.0 * VolumeProjectionSettings{}.tolerance) << "the test must start far from the constraint";
+  const Eigen::Vector3d P0 = linear_momentum(body);
+  VolumeProjection projection;
+  const VolumeProjectionStats stats = projection.project(body, start, {}, dt, dt);
+  EXPECT_LE(max_nodal_volume_error(body, body.positions), VolumeProjectionSettings{}.tolerance);
+  EXPECT_GE(stats.newton_iterations, 1);
+  const double mass = body.masses.sum(), speed = body.velocities.rowwise().norm().maxCoeff();
+  EXPECT_TRUE(test::matrices_near(linear_momentum(body), P0, 1e-12 * mass * speed));
+}
+
 TEST(VolumeProjection, BitwiseIdenticalWithOneAndTwoThreads) {
   Points result[2];
   for (int threads = 1; threads <= 2; ++threads) {
