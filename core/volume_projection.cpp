@@ -592,15 +592,24 @@ VolumeProjectionStats VolumeProjection::restore(Body& body, const std::vector<st
   // Newton's method on the positions (G at each iterate), each solve to a
   // quarter of the tolerance; as the drift at a projection's start, at most
   // kMaxDrift of a node's volume a call. An iteration that does not reduce
-  // the error is undone.
-  double last = std::numeric_limits<double>::infinity();
-  for (int iteration = 0; iteration <= kRestoreIterations; ++iteration) {
+  // the error is undone. The error after a move is measured with the
+  // constraints as last prepared (the elements that may move, the nodes
+  // constrained: a move of a few tolerances changes neither in practice);
+  // G is taken anew only if another iteration follows.
+  const auto prepare_here = [&] {
     prepare(body, body.positions, fixed);
     if (scale != 1.0) rest_ *= scale;
+  };
+  const auto measure = [&] {
     weighted_volumes(body, body.positions);
     for (Index e = 0; e < ne; ++e) volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0;
     quarter_node_sums(body.incidence, volume_, error_);
-    const double error = max_relative(error_, node_rest_, &active_);
+    return max_relative(error_, node_rest_, &active_);
+  };
+  prepare_here();
+  double last = std::numeric_limits<double>::infinity();
+  for (int iteration = 0; iteration <= kRestoreIterations; ++iteration) {
+    const double error = measure();
     if (iteration == 0) {
       stats.error_before = stats.error = error;
       if (!(error > from)) break;  // left to the next step's drift correction
@@ -611,6 +620,10 @@ VolumeProjectionStats VolumeProjection::restore(Body& body, const std::vector<st
     }
     stats.error = last = error;
     if (error <= settings_.tolerance || iteration == kRestoreIterations) break;
+    if (iteration > 0) {
+      prepare_here();
+      measure();  // error_ with this G's constraints
+    }
     for (Index n = 0; n < nn; ++n)
       error_[n] = std::clamp(error_[n], -kMaxDrift * node_rest_[n], kMaxDrift * node_rest_[n]);
     lambda_ = iteration == 0 && restore_start_.size() == nn ? restore_start_ : Eigen::VectorXd::Zero(nn);
