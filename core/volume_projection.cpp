@@ -219,11 +219,6 @@ void VolumeProjection::transpose_product(const Body& body, const Eigen::VectorXd
                          [&](Index n, const Eigen::Vector3d& sum) { out.row(n) = sum.transpose(); });
 }
 
-void VolumeProjection::free_direction(Index n, Eigen::Vector3d& y) const {
-  if (sliding(n)) y = sliding_->free[at(n)] * y;
-  y *= inverse_mass_[n];
-}
-
 void VolumeProjection::move(const Eigen::VectorXd& lambda) {
   directions(lambda);
 }

@@ -151,8 +151,6 @@ class VolumeProjection {
   /// out = (G M⁻¹ Gᵀ) λ over the constrained nodes (0 elsewhere); leaves
   /// direction_ = M⁻¹ Gᵀ λ, as move().
   void apply(const Body& body, const Eigen::VectorXd& lambda, Eigen::VectorXd& out);
-  /// y ← M⁻¹ P y at node n: along its free directions (sliding), by its inverse mass.
-  void free_direction(Index n, Eigen::Vector3d& y) const;
   void move(const Eigen::VectorXd& lambda);
   /// The carried pressures += scale × λ (sized to the body first).
   void carry(const Body& body, const Eigen::VectorXd& lambda, double scale);
@@ -215,7 +213,8 @@ class VolumeProjection {
   /// elements the two share). Gᵀλ and G y are then one pass over the nodes
   /// each, every node summing its own entries in order.
   std::vector<Eigen::Vector3d> rows_, columns_;
-  /// direction_ = M⁻¹ P Gᵀ λ from the prepared G (columns_).
+  /// direction_ = M⁻¹ P Gᵀ λ from the prepared G (columns_): at each node
+  /// along its free directions (P, where sliding), by its inverse mass.
   void directions(const Eigen::VectorXd& lambda);
   /// Rebuilds neighbourhoods_ if the mesh changed; true if it did.
   bool update_neighbourhoods(const Body& body);

@@ -456,7 +456,7 @@ TEST(VolumeProjection, ANodeWithMoreThanSixtyFourNeighboursIsHeldLikeAnyOther) {
   const Points start = body.positions;
   const double dt = 1e-3;
   for (Index n = 0; n < body.num_nodes(); ++n) body.velocities.row(n) << u(rng), u(rng), u(rng);
-  body.velocities *= 0.002 / dt;  // up to 2 mm a step: a tenth of the fan's height is 5 mm
+  body.velocities *= 0.002 / dt;  // up to 2 mm a step, the fan 50 mm high above and below its centre
   body.positions = start + dt * body.velocities;
   const double before = max_nodal_volume_error(body, body.positions);
   ASSERT_GT(before, 10.0 * VolumeProjectionSettings{}.tolerance) << "the test must start far from the constraint";
