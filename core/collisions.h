@@ -45,6 +45,8 @@ class SurfaceCollisions {
   /// Position stage: the deepest penetrating vertex of each element is moved
   /// onto the obstacle's surface (Δx = −d n, nodes by w_i Δx). Repeats while
   /// corrections of neighbours leave penetrations, at most `max_passes` times.
+  /// A penetration within the rounding of its signed distance (64 ε of the
+  /// element's node coordinates and the obstacle's placement) counts as none.
   /// With `contacts`, every correction is appended to it (passes in turn,
   /// each in element order).
   CollisionStats resolve_positions(Body& body, const std::vector<Obstacle>& obstacles, double t,
@@ -81,6 +83,9 @@ class SurfaceCollisions {
   std::vector<Eigen::Vector3d> centre_;     // per element, the centre of its grown box (curved obstacles)
   std::vector<double> centre_distance_;     // per element and obstacle, its signed distance from centre_ (where near)
   std::vector<std::uint64_t> masks_;        // per node, colours used (two words)
+  std::vector<Index> flagged_;              // a restricted detection's elements that have vertices
+  std::vector<Hit> flagged_hits_;           // and the deepest hit of each (element −1: none)
+  std::vector<Hit> per_element_;            // a full detection's deepest hit per element
 };
 
 }  // namespace goo

@@ -210,13 +210,16 @@ Drop block(double h = 0.1) {
 
 // Passes after the first look again only where the earlier one moved
 // nodes; they must find what full detections find: four passes in one call
-// equal four calls of one pass each, bit for bit.
+// equal four calls of one pass each, bit for bit. (Two walls: a correction
+// against one pushes vertices into the other or the floor, so the later
+// passes meet real penetrations, not rounding, which they leave alone.)
 TEST(Collisions, LaterPassesFindWhatAFullDetectionFinds) {
   Drop d = block();
   Body& body = d.body.body;
-  body.positions.col(2).array() -= 0.3;  // sunk 0.05 m into the floor and a sloped wall
+  body.positions.col(2).array() -= 0.3;  // sunk 0.05 m into the floor and two sloped walls
   const std::vector<Obstacle> obstacles{
-      floor_at(0.0), Obstacle{"wall", make_half_space(Eigen::Vector3d(1.0, 0.2, 0.3), 0.1), {}, 0.0}};
+      floor_at(0.0), Obstacle{"wall", make_half_space(Eigen::Vector3d(1.0, 0.2, 0.3), 0.1), {}, 0.0},
+      Obstacle{"other wall", make_half_space(Eigen::Vector3d(-0.3, 1.0, 0.2), 0.05), {}, 0.0}};
   Body one_call = body, four_calls = body;
   SurfaceCollisions a, b;
   const CollisionStats together = a.resolve_positions(one_call, obstacles, 0.0, {}, 4);
@@ -230,6 +233,49 @@ TEST(Collisions, LaterPassesFindWhatAFullDetectionFinds) {
   EXPECT_EQ(together.passes, apart.passes);
   EXPECT_EQ(together.resolved, apart.resolved);
   EXPECT_TRUE(one_call.positions == four_calls.positions);
+}
+
+// A corrected vertex lands on the obstacle only to within the rounding of
+// its signed distance; a penetration that shallow is none. One ulp below a
+// floor at height ~0.4 (5.6e-17 m) is left alone, 1e-12 m is resolved.
+TEST(Collisions, APenetrationWithinTheRoundingOfItsDistanceIsNone) {
+  const Eigen::Vector4d b(0.1, 0.2, 0.3, 0.4);
+  for (const bool rounding : {true, false}) {
+    SCOPED_TRACE(rounding ? "one ulp deep" : "1e-12 m deep");
+    Body body = single_element(b);
+    const double z = body.surface().vertices(0, 2);
+    const double floor = rounding ? std::nextafter(z, 1.0) : z + 1e-12;
+    const Points before = body.positions;
+    SurfaceCollisions collisions;
+    const CollisionStats stats = collisions.resolve_positions(body, {floor_at(floor)}, 0.0, {}, 4);
+    EXPECT_EQ(stats.resolved, rounding ? 0 : 1);
+    if (rounding)
+      EXPECT_TRUE(body.positions == before);
+    else
+      EXPECT_NEAR(body.surface().vertices(0, 2), floor, 1e-15);
+  }
+}
+
+// The passes end by themselves once only rounding is left. A block sunk
+// 0.3 m into the floor and a sloped wall, one pass a call: each call that
+// corrects anything meets a real penetration (the first two: 0.3 and
+// 0.047 m), and a call soon finds nothing. (Before, from the third call
+// on, each moved a few vertices by 10⁻¹⁷ m and found as many again.)
+TEST(Collisions, PassesEndWhenOnlyRoundingIsLeft) {
+  Drop d = block();
+  Body& body = d.body.body;
+  body.positions.col(2).array() -= 0.3;
+  const std::vector<Obstacle> obstacles{
+      floor_at(0.0), Obstacle{"wall", make_half_space(Eigen::Vector3d(1.0, 0.2, 0.3), 0.1), {}, 0.0}};
+  SurfaceCollisions collisions;
+  int calls = 0;
+  for (; calls < 8; ++calls) {
+    const CollisionStats stats = collisions.resolve_positions(body, obstacles, 0.0, {}, 1);
+    if (stats.resolved == 0) break;
+    EXPECT_LT(stats.deepest, -1e-9) << "call " << calls;  // micrometres and more, not rounding
+  }
+  EXPECT_GE(calls, 2);
+  EXPECT_LT(calls, 8);
 }
 
 // A half-space is bounded per element from its nodes' distances and the
