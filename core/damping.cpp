@@ -41,6 +41,16 @@ void Damping::check_frozen(const Body& body) const {
 }
 
 void Damping::apply(const Body& body, const Points& v, Points& out) {
+  element_pass(body, v);
+  const NodeIncidence& incidence = body.incidence;
+  out.resize(static_cast<Index>(incidence.offsets.size() - 1), 3);
+  sum_over_corners(
+      incidence, Eigen::Vector3d::Zero().eval(),
+      [&](Index corner) -> const Eigen::Vector3d& { return corner_forces_[at(corner)]; },
+      [&](Index n, const Eigen::Vector3d& sum) { out.row(n) = sum.transpose(); });
+}
+
+void Damping::element_pass(const Body& body, const Points& v) {
   const Index ne = body.num_elements();
   check_frozen(body);
   const NodeIncidence& incidence = body.incidence;
@@ -48,33 +58,31 @@ void Damping::apply(const Body& body, const Points& v, Points& out) {
   corner_forces_.resize(4 * at(ne));
   const SimdLevel level = active_simd_level();
   const auto blocks = static_cast<Index>(blocks_.size());
-  tbb::parallel_for(tbb::blocked_range<Index>(0, blocks, kParallelGrain / kDampingLanes),
-                    [&](const tbb::blocked_range<Index>& range) {
-                      DampingLanes lanes{};
-                      for (Index b = range.begin(); b != range.end(); ++b) {
-                        const Index first = b * kDampingLanes;
-                        const int count = static_cast<int>(std::min<Index>(kDampingLanes, ne - first));
-                        for (int lane = 0; lane < count; ++lane)
-                          for (int c = 0; c < 4; ++c) {
-                            const Index node = body.tets(first + lane, c);
-                            for (int i = 0; i < 3; ++i) lanes.v[c][i][lane] = v(node, i);
-                          }
-                        damping_block(blocks_[at(b)], lanes, level);
-                        // Each element's four side by side: the node sums read them
-                        // scattered. (Written at each node's place in the incidence,
-                        // the writes scattered instead, one application took 1.1–1.4×
-                        // as long on two threads: docs/benchmarks.md, session 27.)
-                        for (int lane = 0; lane < count; ++lane)
-                          for (int c = 0; c < 4; ++c) {
-                            Eigen::Vector3d& f = corner_forces_[at(4 * (first + lane) + c)];
-                            for (int i = 0; i < 3; ++i) f[i] = lanes.f[c][i][lane];
-                          }
-                      }
-                    });
-  out.resize(static_cast<Index>(incidence.offsets.size() - 1), 3);
-  sum_over_corners(
-      incidence, Eigen::Vector3d::Zero().eval(), [&](Index corner) -> const Eigen::Vector3d& { return corner_forces_[at(corner)]; },
-      [&](Index n, const Eigen::Vector3d& sum) { out.row(n) = sum.transpose(); });
+  tbb::parallel_for(
+      tbb::blocked_range<Index>(0, blocks, kParallelGrain / kDampingLanes),
+      [&](const tbb::blocked_range<Index>& range) {
+        DampingLanes lanes{};
+        for (Index b = range.begin(); b != range.end(); ++b) {
+          const Index first = b * kDampingLanes;
+          const int count = static_cast<int>(std::min<Index>(kDampingLanes, ne - first));
+          for (int lane = 0; lane < count; ++lane)
+            for (int c = 0; c < 4; ++c) {
+              const Index node = body.tets(first + lane, c);
+              for (int i = 0; i < 3; ++i) lanes.v[c][i][lane] = v(node, i);
+            }
+          damping_block(blocks_[at(b)], lanes, level);
+          // Each element's four side by side: the node sums read them
+          // scattered. (Written at each node's place in the incidence,
+          // the writes scattered instead, one application took 1.1–1.4×
+          // as long on two threads: docs/benchmarks.md, session 27.)
+          for (int lane = 0; lane < count; ++lane)
+            for (int c = 0; c < 4; ++c) {
+              Eigen::Vector3d& f = corner_forces_[at(4 * (first + lane) + c)];
+              for (int i = 0; i < 3; ++i) f[i] = lanes.f[c][i][lane];
+            }
+        }
+      },
+      tbb::static_partitioner());
 }
 
 void Damping::apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,

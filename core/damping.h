@@ -32,6 +32,14 @@ class Damping {
   /// Eight elements at a time in the processor's vector lanes
   /// (core/damping_batch.h): the same bits at every width.
   void apply(const Body& body, const Points& v, Points& out);
+  /// apply's pass over the elements alone: each corner's force, element by
+  /// element (corner 4 e + k), into corner_forces(); summed over each
+  /// node's corners in the incidence order, they are apply's out. The
+  /// elements are split evenly between the threads in order (a static
+  /// partition), so that a caller's node passes, split the same way, read
+  /// mostly what the same thread wrote.
+  void element_pass(const Body& body, const Points& v);
+  [[nodiscard]] const std::vector<Eigen::Vector3d>& corner_forces() const { return corner_forces_; }
 
   /// freeze(body, Fe, Fp_inv), then apply(body, v, out).
   void apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe, const std::vector<Eigen::Matrix3d>& Fp_inv,

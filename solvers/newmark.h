@@ -94,6 +94,8 @@ class NewmarkIntegrator final : public Integrator {
   std::vector<unsigned char> constrained_;
   // CG work arrays, kept across steps.
   Points r_, z_, p_, Ap_, Cp_;
+  static constexpr Index kCgRun = 256;  // nodes a run of the CG's passes
+  std::vector<double> run_sums_;        // per run, its share of a pass's sums
   /// Each half step's last damping solution, m/s (the next step's warm start for that half).
   std::array<Points, 2> last_solutions_;
   std::vector<Eigen::Matrix3d> blocks_;  // C's diagonal blocks at the recorded Fe (fresh while blocks_fresh_)
