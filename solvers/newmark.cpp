@@ -7,10 +7,6 @@
 #include <limits>
 #include <utility>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/partitioner.h>
-
 #include "core/error.h"
 #include "core/parallel.h"
 #include "solvers/stepping.h"
@@ -224,25 +220,13 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
   double rz = dot(r_, z_);
   int iteration = 0;
   double residual = velocity_norm(body, r_) / impulse;
-  // The iterations run as passes over fixed runs of kCgRun nodes, the runs
-  // split evenly between the threads in node order (a static partition,
-  // as the damping's element pass is), so that each thread reads mostly
-  // the vector entries it wrote itself. (With the vector operations on the
-  // calling thread, the other thread fetched the new direction from its
-  // cache at every product: docs/benchmarks.md, session 36.) Sums go per
-  // run, then run by run: the same bits for any number of threads.
+  // The iterations run as passes over fixed runs of kCgRun nodes, split
+  // evenly between the threads like the damping's element pass
+  // (for_each_run); sums per run, then run by run.
   const NodeIncidence& incidence = body.incidence;
   const Index runs = (nn + kCgRun - 1) / kCgRun;
   run_sums_.resize(2 * at(runs));
-  auto over_runs = [&](auto&& f) {
-    tbb::parallel_for(
-        tbb::blocked_range<Index>(0, runs, 1),
-        [&](const tbb::blocked_range<Index>& range) {
-          for (Index run = range.begin(); run != range.end(); ++run)
-            f(run, run * kCgRun, std::min(nn, (run + 1) * kCgRun));
-        },
-        tbb::static_partitioner());
-  };
+  auto over_runs = [&](auto&& f) { for_each_run(nn, kCgRun, f); };
   auto total = [&](std::size_t which) {
     double sum = 0.0;
     for (Index run = 0; run < runs; ++run) sum += run_sums_[2 * at(run) + which];
