@@ -41,7 +41,7 @@ void Damping::check_frozen(const Body& body) const {
 }
 
 void Damping::apply(const Body& body, const Points& v, Points& out) {
-  element_pass(body, v);
+  element_loop(body, v, tbb::auto_partitioner());
   const NodeIncidence& incidence = body.incidence;
   out.resize(static_cast<Index>(incidence.offsets.size() - 1), 3);
   sum_over_corners(
@@ -51,6 +51,11 @@ void Damping::apply(const Body& body, const Points& v, Points& out) {
 }
 
 void Damping::element_pass(const Body& body, const Points& v) {
+  element_loop(body, v, tbb::static_partitioner());
+}
+
+template <class Partitioner>
+void Damping::element_loop(const Body& body, const Points& v, const Partitioner& partitioner) {
   const Index ne = body.num_elements();
   check_frozen(body);
   const NodeIncidence& incidence = body.incidence;
@@ -82,7 +87,7 @@ void Damping::element_pass(const Body& body, const Points& v) {
             }
         }
       },
-      tbb::static_partitioner());
+      partitioner);
 }
 
 void Damping::apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
