@@ -216,7 +216,7 @@ Drop block(double h = 0.1) {
 TEST(Collisions, LaterPassesFindWhatAFullDetectionFinds) {
   Drop d = block();
   Body& body = d.body.body;
-  body.positions.col(2).array() -= 0.3;  // sunk 0.05 m into the floor and two sloped walls
+  body.positions.col(2).array() -= 0.3;  // its bottom 0.2 m under the floor, into two sloped walls
   const std::vector<Obstacle> obstacles{
       floor_at(0.0), Obstacle{"wall", make_half_space(Eigen::Vector3d(1.0, 0.2, 0.3), 0.1), {}, 0.0},
       Obstacle{"other wall", make_half_space(Eigen::Vector3d(-0.3, 1.0, 0.2), 0.05), {}, 0.0}};
@@ -256,10 +256,10 @@ TEST(Collisions, APenetrationWithinTheRoundingOfItsDistanceIsNone) {
   }
 }
 
-// The passes end by themselves once only rounding is left. A block sunk
-// 0.3 m into the floor and a sloped wall, one pass a call: each call that
-// corrects anything meets a real penetration (the first two: 0.3 and
-// 0.047 m), and a call soon finds nothing. (Before, from the third call
+// The passes end by themselves once only rounding is left. A block moved
+// 0.3 m down (its bottom 0.2 m under the floor) into a sloped wall, one
+// pass a call: each call that corrects anything meets a real penetration
+// (the first two 0.3 and 0.047 m deep), and a call soon finds nothing. (Before, from the third call
 // on, each moved a few vertices by 10⁻¹⁷ m and found as many again.)
 TEST(Collisions, PassesEndWhenOnlyRoundingIsLeft) {
   Drop d = block();
