@@ -41,7 +41,7 @@ void Damping::check_frozen(const Body& body) const {
 }
 
 void Damping::apply(const Body& body, const Points& v, Points& out) {
-  element_loop(body, v, tbb::auto_partitioner());
+  element_loop(body, v, nullptr, tbb::auto_partitioner());
   const NodeIncidence& incidence = body.incidence;
   out.resize(static_cast<Index>(incidence.offsets.size() - 1), 3);
   sum_over_corners(
@@ -51,29 +51,35 @@ void Damping::apply(const Body& body, const Points& v, Points& out) {
 }
 
 void Damping::element_pass(const Body& body, const Points& v) {
-  element_loop(body, v, tbb::static_partitioner());
+  element_loop(body, v, nullptr, tbb::static_partitioner());
+}
+
+void Damping::element_pass(const Body& body, const Points& v, const Points& w) {
+  element_loop(body, v, &w, tbb::static_partitioner());
 }
 
 template <class Partitioner>
-void Damping::element_loop(const Body& body, const Points& v, const Partitioner& partitioner) {
+void Damping::element_loop(const Body& body, const Points& v, const Points* w, const Partitioner& partitioner) {
   const Index ne = body.num_elements();
   check_frozen(body);
   const NodeIncidence& incidence = body.incidence;
   require_slots(incidence, ne, "damping");  // the node sums read corners 4e + k through it
   corner_forces_.resize(4 * at(ne));
+  if (w != nullptr) second_corner_forces_.resize(4 * at(ne));
   const SimdLevel level = active_simd_level();
   const auto blocks = static_cast<Index>(blocks_.size());
   tbb::parallel_for(
       tbb::blocked_range<Index>(0, blocks, kParallelGrain / kDampingLanes),
       [&](const tbb::blocked_range<Index>& range) {
         DampingLanes lanes{};
-        for (Index b = range.begin(); b != range.end(); ++b) {
+        // One block's forces for the velocities x, into `out`.
+        auto block_forces = [&](Index b, const Points& x, std::vector<Eigen::Vector3d>& out) {
           const Index first = b * kDampingLanes;
           const int count = static_cast<int>(std::min<Index>(kDampingLanes, ne - first));
           for (int lane = 0; lane < count; ++lane)
             for (int c = 0; c < 4; ++c) {
               const Index node = body.tets(first + lane, c);
-              for (int i = 0; i < 3; ++i) lanes.v[c][i][lane] = v(node, i);
+              for (int i = 0; i < 3; ++i) lanes.v[c][i][lane] = x(node, i);
             }
           damping_block(blocks_[at(b)], lanes, level);
           // Each element's four side by side: the node sums read them
@@ -82,9 +88,13 @@ void Damping::element_loop(const Body& body, const Points& v, const Partitioner&
           // as long on two threads: docs/benchmarks.md, session 27.)
           for (int lane = 0; lane < count; ++lane)
             for (int c = 0; c < 4; ++c) {
-              Eigen::Vector3d& f = corner_forces_[at(4 * (first + lane) + c)];
+              Eigen::Vector3d& f = out[at(4 * (first + lane) + c)];
               for (int i = 0; i < 3; ++i) f[i] = lanes.f[c][i][lane];
             }
+        };
+        for (Index b = range.begin(); b != range.end(); ++b) {
+          block_forces(b, v, corner_forces_);
+          if (w != nullptr) block_forces(b, *w, second_corner_forces_);
         }
       },
       partitioner);
@@ -119,23 +129,35 @@ void Damping::diagonal_blocks(const Body& body, std::vector<Eigen::Matrix3d>& ou
       // k's shape-function gradient, rows of Dm⁻¹, g_0 = −Σ): apply's force
       // on node k is −2 W det(Fp) β Fe sym(Feᵀ Ḟe) w_k, whose derivative by
       // v_k is the block below, negated.
+      // The block is symmetric: its six entries (i, j) = xx yy zz xy xz
+      // yz, each from the same products as its mirror would be.
       const Eigen::Matrix3d W = A.transpose();  // columns w_1..w_3
-      const Eigen::Matrix3d GGt = G * G.transpose();
+      constexpr std::array<std::array<int, 2>, 6> kEntries{{{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}}};
+      std::array<double, 6> GGt{};  // G Gᵀ
+      for (std::size_t i = 0; i < 6; ++i) GGt[i] = G.row(kEntries[i][0]).dot(G.row(kEntries[i][1]));
       auto& blocks = element_blocks_[at(e)];
       for (int k = 0; k < 4; ++k) {
         const Eigen::Vector3d w = k == 0 ? Eigen::Vector3d(-W.rowwise().sum()) : Eigen::Vector3d(W.col(k - 1));
         const Eigen::Vector3d Gw = G * w;
-        blocks[static_cast<std::size_t>(k)] = scale * (w.squaredNorm() * GGt + Gw * Gw.transpose());
+        const double ww = w.squaredNorm();
+        auto& block = blocks[static_cast<std::size_t>(k)].entries;
+        for (std::size_t i = 0; i < 6; ++i) block[i] = scale * (ww * GGt[i] + Gw[kEntries[i][0]] * Gw[kEntries[i][1]]);
       }
     }
   });
   out.resize(body.incidence.offsets.size() - 1);
   sum_over_corners(
-      body.incidence, Eigen::Matrix3d::Zero().eval(),
-      [&](Index corner) -> const Eigen::Matrix3d& {
+      body.incidence, SymmetricBlock{},
+      [&](Index corner) -> const SymmetricBlock& {
         return element_blocks_[at(corner / 4)][static_cast<std::size_t>(corner % 4)];
       },
-      [&](Index n, const Eigen::Matrix3d& sum) { out[at(n)] = sum; });
+      [&](Index n, const SymmetricBlock& symmetric) {
+        const auto& sum = symmetric.entries;
+        Eigen::Matrix3d& block = out[at(n)];
+        block << sum[0], sum[3], sum[4],  //
+            sum[3], sum[1], sum[5],       //
+            sum[4], sum[5], sum[2];
+      });
 }
 
 double max_strain_rate(const Body& body, const Points& v) {

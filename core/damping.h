@@ -17,6 +17,15 @@
 
 namespace goo {
 
+/// A symmetric 3×3 matrix by its six entries, xx yy zz xy xz yz.
+struct SymmetricBlock {
+  std::array<double, 6> entries{};
+  SymmetricBlock& operator+=(const SymmetricBlock& o) {
+    for (std::size_t i = 0; i < 6; ++i) entries[i] += o.entries[i];
+    return *this;
+  }
+};
+
 class Damping {
  public:
   /// Freezes C at the elastic deformation Fe and Fp⁻¹ of each element
@@ -39,7 +48,12 @@ class Damping {
   /// partition), so that a caller's node passes, split the same way, read
   /// mostly what the same thread wrote.
   void element_pass(const Body& body, const Points& v);
+  /// The same pass for two velocity fields at once, each element's frozen
+  /// values read once for both: v's forces into corner_forces(), w's into
+  /// second_corner_forces(), each the same bits as a pass of its own.
+  void element_pass(const Body& body, const Points& v, const Points& w);
   [[nodiscard]] const std::vector<Eigen::Vector3d>& corner_forces() const { return corner_forces_; }
+  [[nodiscard]] const std::vector<Eigen::Vector3d>& second_corner_forces() const { return second_corner_forces_; }
 
   /// freeze(body, Fe, Fp_inv), then apply(body, v, out).
   void apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe, const std::vector<Eigen::Matrix3d>& Fp_inv,
@@ -58,18 +72,22 @@ class Damping {
   /// The element loop of apply and element_pass. (apply keeps TBB's
   /// default split: BM_DampingApply/12/2 took 0.17 ms with the static one,
   /// 0.11 ms without, its calling thread left waiting for a late worker.)
+  /// With `w`, w's forces too (into second_corner_forces_).
   template <class Partitioner>
-  void element_loop(const Body& body, const Points& v, const Partitioner& partitioner);
+  void element_loop(const Body& body, const Points& v, const Points* w, const Partitioner& partitioner);
   /// Throws unless frozen for a body of this many elements.
   void check_frozen(const Body& body) const;
   /// Each corner's force, element by element (4 e + k).
-  std::vector<Eigen::Vector3d> corner_forces_;
+  std::vector<Eigen::Vector3d> corner_forces_, second_corner_forces_;
   const std::vector<Eigen::Matrix3d>* Fe_ = nullptr;  ///< as frozen
   std::size_t frozen_elements_ = 0;                   ///< elements of the body frozen for
   /// Fe, A = Dm⁻¹ Fp⁻¹ and the scale 2β W det Fp as frozen, eight elements a
   /// block (the one copy: diagonal_blocks reads A and the scale from here).
   std::vector<DampingBlock> blocks_;
-  std::vector<std::array<Eigen::Matrix3d, 4>> element_blocks_;
+  /// Per element, its corners' blocks of C: symmetric to the bit (each
+  /// entry's products are those of its mirror, in the same order), so six
+  /// entries each, xx yy zz xy xz yz (two thirds of the nine's traffic).
+  std::vector<std::array<SymmetricBlock, 4>> element_blocks_;
 };
 
 /// max over elements of ‖Ḟ‖_F for velocities v, 1/s.

@@ -146,13 +146,6 @@ void NewmarkIntegrator::zero_constrained(Points& a) const {
     if (constrained_[at(n)]) a.row(n).setZero();
 }
 
-void NewmarkIntegrator::apply_system(const Body& body, double h, const Points& x, Points& out) {
-  damping_.apply(body, x, Cp_);  // −C x, C frozen at the last force evaluation
-  out = x;
-  for (Index n = 0; n < body.num_nodes(); ++n) out.row(n) *= body.masses[n];
-  out -= h * Cp_;
-}
-
 double NewmarkIntegrator::velocity_norm(const Body& body, const Points& r) {
   double sum = 0.0;
   for (Index n = 0; n < body.num_nodes(); ++n) sum += r.row(n).squaredNorm() / body.masses[n];
@@ -170,17 +163,16 @@ void NewmarkIntegrator::invert_diagonal_blocks(const Body& body, double h) {
     blocks_fresh_ = true;
   }
   inverse_blocks_.resize(at(nn));
-  for (Index n = 0; n < nn; ++n) {
-    // Inverted at unit scale: the cofactors of a block of 1e197 kg overflow.
-    const Eigen::Matrix3d block = h * blocks_[at(n)] + body.masses[n] * Eigen::Matrix3d::Identity();
-    const double size = block.trace() / 3.0;
-    inverse_blocks_[at(n)] = (block / size).inverse() / size;
-  }
-}
-
-void NewmarkIntegrator::precondition() {
-  z_.resize(r_.rows(), 3);
-  for (Index n = 0; n < r_.rows(); ++n) z_.row(n) = (inverse_blocks_[at(n)] * r_.row(n).transpose()).transpose();
+  z_.resize(nn, 3);
+  for_each_run(nn, kCgRun, [&](Index, Index begin, Index end) {
+    for (Index n = begin; n < end; ++n) {
+      // Inverted at unit scale: the cofactors of a block of 1e197 kg overflow.
+      const Eigen::Matrix3d block = h * blocks_[at(n)] + body.masses[n] * Eigen::Matrix3d::Identity();
+      const double size = block.trace() / 3.0;
+      inverse_blocks_[at(n)] = (block / size).inverse() / size;
+      z_.row(n) = (inverse_blocks_[at(n)] * r_.row(n).transpose()).transpose();  // the preconditioner on r
+    }
+  });
 }
 
 void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& rhs, const Points* guess, Points& v,
@@ -196,26 +188,48 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
   // the faster the body moved, for nothing; the plain |r| relative to |r₀|
   // let a heavily damped body keep an error in its rigid motion, where A =
   // M is small beside hC: a block held by friction slid.)
-  apply_system(body, h, v, Ap_);
-  r_ = rhs - Ap_;
-  zero_constrained(r_);
+  // The residuals at v and at the guess from one pass over the elements
+  // for both (each the same bits as an application of its own).
+  const bool guessed = guess != nullptr && guess->rows() == nn;
+  if (guessed) {
+    // The guessed velocities: kept if they leave less residual than v.
+    trial_ = *guess;
+    for (Index n = 0; n < nn; ++n)
+      if (constrained_[at(n)]) trial_.row(n) = v.row(n);  // imposed values kept
+    damping_.element_pass(body, v, trial_);
+  } else {
+    damping_.element_pass(body, v);
+  }
+  r_.resize(nn, 3);
+  if (guessed) r_trial_.resize(nn, 3);
+  const NodeIncidence& incidence = body.incidence;
+  const std::vector<Eigen::Vector3d>& corners = damping_.corner_forces();
+  const std::vector<Eigen::Vector3d>& trial_corners = damping_.second_corner_forces();
+  // r = rhs − (M + hC) x at the free nodes, zero at the others.
+  auto residual_at = [&](Index n, const Points& x, const std::vector<Eigen::Vector3d>& forces, Points& r) {
+    if (constrained_[at(n)]) {
+      r.row(n).setZero();
+      return;
+    }
+    Eigen::Vector3d Cx = Eigen::Vector3d::Zero();  // −C x at n, its corners in the incidence's order
+    for (Index i = incidence.offsets[at(n)]; i < incidence.offsets[at(n) + 1]; ++i)
+      Cx += forces[at(incidence.corners[at(i)])];
+    const Eigen::Vector3d Ax = body.masses[n] * x.row(n).transpose() - h * Cx;
+    r.row(n) = rhs.row(n) - Ax.transpose();
+  };
+  for_each_run(nn, kCgRun, [&](Index, Index begin, Index end) {
+    for (Index n = begin; n < end; ++n) {
+      residual_at(n, v, corners, r_);
+      if (guessed) residual_at(n, trial_, trial_corners, r_trial_);
+    }
+  });
   const double impulse = velocity_norm(body, r_);
   if (impulse == 0.0) return;  // v already solves it
-  if (guess != nullptr && guess->rows() == nn) {
-    // The guessed velocities: kept if they leave less residual than v.
-    Points trial = *guess;
-    for (Index n = 0; n < nn; ++n)
-      if (constrained_[at(n)]) trial.row(n) = v.row(n);  // imposed values kept
-    apply_system(body, h, trial, Ap_);
-    Points r_trial = rhs - Ap_;
-    zero_constrained(r_trial);
-    if (velocity_norm(body, r_trial) < impulse) {
-      v = trial;
-      r_ = r_trial;
-    }
+  if (guessed && velocity_norm(body, r_trial_) < impulse) {
+    v = trial_;
+    r_.swap(r_trial_);
   }
-  invert_diagonal_blocks(body, h);
-  precondition();
+  invert_diagonal_blocks(body, h);  // z_ too
   p_ = z_;
   double rz = dot(r_, z_);
   int iteration = 0;
@@ -223,7 +237,7 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
   // The iterations run as passes over fixed runs of kCgRun nodes, split
   // evenly between the threads like the damping's element pass
   // (for_each_run); sums per run, then run by run.
-  const NodeIncidence& incidence = body.incidence;
+  Ap_.resize(nn, 3);
   const Index runs = (nn + kCgRun - 1) / kCgRun;
   run_sums_.resize(2 * at(runs));
   auto over_runs = [&](auto&& f) { for_each_run(nn, kCgRun, f); };
@@ -233,7 +247,6 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
     return sum;
   };
   const Eigen::VectorXd& m = body.masses;
-  const std::vector<Eigen::Vector3d>& corners = damping_.corner_forces();
   while (residual > settings_.cg_tolerance && iteration < settings_.cg_max_iterations) {
     // Ap = (M + hC) p at the free nodes (zero at the others), and pᵀAp.
     damping_.element_pass(body, p_);

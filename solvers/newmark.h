@@ -62,16 +62,13 @@ class NewmarkIntegrator final : public Integrator {
   /// solve_damped's CG on a right-hand side scaled to about unit size.
   void remove_net_residual(const Body& body, const Points& r, Points& v) const;
   void solve_scaled(const Body& body, double h, const Points& rhs, const Points* guess, Points& v, StepReport& status);
-  /// out = (M + hC) x (Cp_ = −C x on the way).
-  void apply_system(const Body& body, double h, const Points& x, Points& out);
   /// |r|_M⁻¹ = √(rᵀM⁻¹r): a residual impulse measured as a velocity.
   [[nodiscard]] static double velocity_norm(const Body& body, const Points& r);
   /// Rows of constrained nodes set to zero.
   void zero_constrained(Points& a) const;
-  /// The preconditioner: each node's own block of M + hC, inverted.
+  /// The preconditioner: each node's own block of M + hC, inverted; and
+  /// z_, it applied to r_.
   void invert_diagonal_blocks(const Body& body, double h);
-  /// z_ = the preconditioner applied to r_.
-  void precondition();
   void impose_velocities(const Body& body, double t_next, double dt, Points& v) const;
 
   NewmarkSettings settings_;
@@ -93,7 +90,7 @@ class NewmarkIntegrator final : public Integrator {
   double time_ = 0.0;
   std::vector<unsigned char> constrained_;
   // CG work arrays, kept across steps.
-  Points r_, z_, p_, Ap_, Cp_;
+  Points r_, z_, p_, Ap_, trial_, r_trial_;
   static constexpr Index kCgRun = 256;  // nodes a run of the CG's passes
   std::vector<double> run_sums_;        // per run, its share of a pass's sums
   /// Each half step's last damping solution, m/s (the next step's warm start for that half).

@@ -202,7 +202,44 @@ TEST(Damping, DiagonalBlocksAreTheForceOfEachNodesOwnVelocity) {
         << "node " << n;
     EXPECT_GT(blocks[static_cast<std::size_t>(n)].ldlt().vectorD().minCoeff(), 0.0)
         << "node " << n;  // SPD: a preconditioner
+    // Symmetric to the bit (the preconditioner of a symmetric system).
+    const Eigen::Matrix3d& block = blocks[static_cast<std::size_t>(n)];
+    EXPECT_TRUE(block == block.transpose()) << "node " << n;
   }
+}
+
+TEST(Damping, OnePassForTwoVelocityFieldsGivesEachTheBitsOfItsOwnPass) {
+  // element_pass(v, w): the damping solve's residuals at v and at its warm
+  // start from one pass over the elements. Each field's corner forces must
+  // be those of a pass for it alone, to the bit.
+  Body body = make_cube(ElasticModel::fixed_corotated, 3);
+  body.material.viscosity = 3.0;
+  const Points x = sheared(body);
+  ElasticForces forces;
+  Points f;
+  forces.evaluate(body, x, 0.0, f);
+  Damping damping;
+  damping.freeze(body, forces.elastic_deformation(), forces.inverse_plastic_deformation());
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Points v(body.num_nodes(), 3), w(body.num_nodes(), 3);
+  for (Index n = 0; n < body.num_nodes(); ++n)
+    for (int k = 0; k < 3; ++k) {
+      v(n, k) = u(rng);
+      w(n, k) = u(rng);
+    }
+  damping.element_pass(body, v);
+  const std::vector<Eigen::Vector3d> alone_v = damping.corner_forces();
+  damping.element_pass(body, w);
+  const std::vector<Eigen::Vector3d> alone_w = damping.corner_forces();
+  damping.element_pass(body, v, w);
+  ASSERT_EQ(damping.corner_forces().size(), alone_v.size());
+  ASSERT_EQ(damping.second_corner_forces().size(), alone_w.size());
+  for (std::size_t c = 0; c < alone_v.size(); ++c) {
+    EXPECT_TRUE(damping.corner_forces()[c] == alone_v[c]) << "corner " << c;
+    EXPECT_TRUE(damping.second_corner_forces()[c] == alone_w[c]) << "corner " << c;
+  }
+  EXPECT_FALSE(alone_v == alone_w);  // two fields, two sets of forces
 }
 
 TEST(Body, LumpedMassesAndIncidence) {
