@@ -101,10 +101,32 @@ double pair_ratio(const std::array<Index, 3>& ia, const std::array<Index, 3>& ib
   return ratio;
 }
 
+/// A lower bound of σ_min(A) without an SVD: σ_min² is the least
+/// eigenvalue of B = AᵀA, at least min_i (B_ii − Σ_{j≠i} |B_ij|)
+/// (Gershgorin). 0 (no bound) where that is below 10⁻⁶ of B's largest
+/// diagonal entry: there its rounding (ε of B) would pass the 10⁻⁹ margin.
+double smallest_singular_value_bound(const Eigen::Matrix3d& A) {
+  const Eigen::Matrix3d B = A.transpose() * A;
+  double least = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < 3; ++i)
+    least = std::min(least, B(i, i) - std::abs(B(i, (i + 1) % 3)) - std::abs(B(i, (i + 2) % 3)));
+  return least > 1e-6 * B.diagonal().maxCoeff() ? std::sqrt(least) : 0.0;
+}
+
+/// The relative margin by which a κ from the bounds is taken above the one
+/// from the SVD: far above the rounding of either.
+constexpr double kBoundMargin = 1e-9;
+
 /// star_spread of `count` tets whose gradients are F0(k) and F1(k), read
 /// where they are (a star's from the per-element arrays: no copies).
+///
+/// With a `multiplier` m and `threshold` τ (the test the caller puts κ to,
+/// κ m < τ): first κ from σ_min's Gershgorin bounds, which is at least the
+/// SVD's (s falls with s0 and s1); if that passes the test, it is returned,
+/// and the SVD's, smaller, passes it too, so every decision the caller
+/// takes on it is the same. Otherwise (and without a test) κ from the SVD.
 template <class Start, class End>
-double spread_of(std::size_t count, Start&& F0, End&& F1) {
+double spread_of(std::size_t count, Start&& F0, End&& F1, double multiplier = 0.0, double threshold = 0.0) {
   if (count == 0) return std::numeric_limits<double>::infinity();
   Eigen::Matrix3d A0 = Eigen::Matrix3d::Zero(), A1 = Eigen::Matrix3d::Zero();
   for (std::size_t k = 0; k < count; ++k) {
@@ -115,6 +137,14 @@ double spread_of(std::size_t count, Start&& F0, End&& F1) {
   A1 /= double(count);
   double L = 0.0;
   for (std::size_t k = 0; k < count; ++k) L = std::max({L, (F0(k) - A0).norm(), (F1(k) - A1).norm()});
+  if (multiplier > 0.0) {
+    const double b0 = smallest_singular_value_bound(A0), b1 = smallest_singular_value_bound(A1);
+    const double s = std::min({b0, b1, 0.5 * (b0 + b1 - (A1 - A0).norm())});
+    if (s > 0.0) {
+      const double kappa = (1.0 + kBoundMargin) * (L / s);
+      if (kappa * multiplier < threshold) return kappa;
+    }
+  }
   const double s0 = smallest_singular_value(A0), s1 = smallest_singular_value(A1), delta = (A1 - A0).norm();
   const double s = std::min({s0, s1, 0.5 * (s0 + s1 - delta)});
   return s > 0.0 ? L / s : std::numeric_limits<double>::infinity();
@@ -122,10 +152,11 @@ double spread_of(std::size_t count, Start&& F0, End&& F1) {
 
 }  // namespace
 
-double star_spread(const std::vector<Eigen::Matrix3d>& F0, const std::vector<Eigen::Matrix3d>& F1) {
+double star_spread(const std::vector<Eigen::Matrix3d>& F0, const std::vector<Eigen::Matrix3d>& F1, double multiplier,
+                   double threshold) {
   return spread_of(
       F0.size(), [&](std::size_t k) -> const Eigen::Matrix3d& { return F0[k]; },
-      [&](std::size_t k) -> const Eigen::Matrix3d& { return F1[k]; });
+      [&](std::size_t k) -> const Eigen::Matrix3d& { return F1[k]; }, multiplier, threshold);
 }
 
 bool CalmStars::update_mesh(const Body& body) {
@@ -242,6 +273,21 @@ void CalmStars::update_surface(const Body& body, const std::vector<Index>& eleme
     boxes[at(t)] = b;
   }
   const auto pairs = overlapping_pairs(boxes, &element_of);  // two in one element hold one-element pairs only
+  // Each triangle's ball (about its corners' mean, through its farthest
+  // corner), as pair_ratio takes it: a pair whose two balls keep every
+  // primitive pair below the ratio needs no primitive measured. Points of
+  // the two balls lie at most |c_a − c_b| + r_a + r_b apart and at least
+  // |c_a − c_b| − r_a − r_b, which bounds every D and d alike; with the
+  // same margin of 10⁻⁶ as pair_ratio's bound.
+  std::vector<std::array<double, 4>> ball(at(nt));
+  for_each_index(nt, [&](Index t) {
+    const Vec3 c =
+        (surface_rest_.row(tris(t, 0)) + surface_rest_.row(tris(t, 1)) + surface_rest_.row(tris(t, 2))).transpose() /
+        3.0;
+    double r2 = 0.0;
+    for (int k = 0; k < 3; ++k) r2 = std::max(r2, (surface_rest_.row(tris(t, k)).transpose() - c).squaredNorm());
+    ball[at(t)] = {c.x(), c.y(), c.z(), std::sqrt(r2)};
+  });
   std::vector<double> ratio(pairs.size(), 0.0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pairs.size(), 1024), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
@@ -249,6 +295,11 @@ void CalmStars::update_surface(const Body& body, const std::vector<Index>& eleme
       for (const Index n : candidates_[at(pairs[i][0])])
         for (const Index m : candidates_[at(pairs[i][1])]) common = common || (n >= 0 && n == m);
       if (!common) continue;  // never in one group
+      const auto &a = ball[at(pairs[i][0])], &b = ball[at(pairs[i][1])];
+      const double centres =
+          std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+      const double apart = centres - a[3] - b[3];
+      if (apart > 0.0 && centres + a[3] + b[3] <= kRatioBound * apart) continue;  // every ratio below kRatio
       std::array<Index, 3> ia{}, ib{};
       std::array<Vec3, 3> pa, pb;
       for (int k = 0; k < 3; ++k) {
@@ -282,13 +333,14 @@ void CalmStars::gradients(const Body& body, const Points& x0, const Points& d,
   });
 }
 
-double CalmStars::spread(const Body& body, Index n) const {
+double CalmStars::spread(const Body& body, Index n, double multiplier, double threshold) const {
   (void)body;
   const Index first = incidence_.offsets[at(n)];
   auto element = [&](std::size_t k) { return at(incidence_.corners[at(first) + k] / 4); };
   return spread_of(
-      at(incidence_.offsets[at(n) + 1] - first), [&](std::size_t k) -> const Eigen::Matrix3d& { return F0_[element(k)]; },
-      [&](std::size_t k) -> const Eigen::Matrix3d& { return F1_[element(k)]; });
+      at(incidence_.offsets[at(n) + 1] - first),
+      [&](std::size_t k) -> const Eigen::Matrix3d& { return F0_[element(k)]; },
+      [&](std::size_t k) -> const Eigen::Matrix3d& { return F1_[element(k)]; }, multiplier, threshold);
 }
 
 std::vector<Index> CalmStars::assign_groups(const Body& body, const Points& x0, const Points& d) {
@@ -309,7 +361,7 @@ std::vector<Index> CalmStars::assign_groups(const Body& body, const Points& x0, 
   gradients(body, x0, d, nullptr);
   tbb::parallel_for(tbb::blocked_range<Index>(0, nn, 64), [&](const tbb::blocked_range<Index>& r) {
     for (Index n = r.begin(); n != r.end(); ++n)
-      if (eligible_[at(n)] && star_has_surface_[at(n)]) kappa_[at(n)] = spread(body, n);
+      if (eligible_[at(n)] && star_has_surface_[at(n)]) kappa_[at(n)] = spread(body, n, kRatio, kGroupable);
   });
   const Triangles& tris = body.surface_triangles;
   for (Index t = 0; t < nt; ++t) {
@@ -387,7 +439,13 @@ std::vector<std::array<Index, 2>> CalmStars::newly_unsafe(const Body& body, cons
       for (Index c = incidence_.offsets[at(n)]; c < incidence_.offsets[at(n) + 1] && !star_moved; ++c)
         star_moved = elements[at(incidence_.corners[at(c)] / 4)] != 0;
       if (!star_moved) continue;
-      kappa_[at(n)] = spread(body, n);
+      // Tested below as κ × kRatio and κ × the next near pair's ratio
+      // (the largest not yet returned) against kUnsafe: with κ under both,
+      // nothing is returned.
+      const Index next = near_offsets_[at(n)] + near_listed_[at(n)];
+      const double largest =
+          next < near_offsets_[at(n) + 1] ? std::max(kRatio, near_ratio_[at(near_members_[at(next)])]) : kRatio;
+      kappa_[at(n)] = spread(body, n, largest, kUnsafe);
       touched[i] = 1;
     }
   });

@@ -28,7 +28,11 @@ namespace goo {
 /// either end (‖·‖ is convex, so it bounds every time), s a lower bound of
 /// σ_min(Ā(t)) on [0, 1]: σ_min is 1-Lipschitz in Ā, which moves by
 /// Δ = ‖Ā1 − Ā0‖_F, so s = min(σ0, σ1, (σ0 + σ1 − Δ) / 2). Infinite when s ≤ 0.
-double star_spread(const std::vector<Eigen::Matrix3d>& F0, const std::vector<Eigen::Matrix3d>& F1);
+/// With a test κ × multiplier < threshold (multiplier > 0): a κ from lower
+/// bounds of σ0 and σ1 (no SVD) when that passes it, a value at least the
+/// SVD's; otherwise the SVD's. Either way the test's answer is the SVD's.
+double star_spread(const std::vector<Eigen::Matrix3d>& F0, const std::vector<Eigen::Matrix3d>& F1,
+                   double multiplier = 0.0, double threshold = 0.0);
 
 class CalmStars {
  public:
@@ -83,7 +87,10 @@ class CalmStars {
 
  private:
   void gradients(const Body& body, const Points& x0, const Points& d, const std::vector<std::uint8_t>* elements);
-  [[nodiscard]] double spread(const Body& body, Index n) const;
+  /// Star n's κ this step, or a bound above it when that bound passes the
+  /// caller's test κ × multiplier < threshold (the decisions are then the
+  /// same as with κ; spread_of in calm_stars.cpp).
+  [[nodiscard]] double spread(const Body& body, Index n, double multiplier, double threshold) const;
 
   Tets tets_;                // the mesh the stars below belong to
   Points rest_;              // its rest positions
