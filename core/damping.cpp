@@ -129,35 +129,23 @@ void Damping::diagonal_blocks(const Body& body, std::vector<Eigen::Matrix3d>& ou
       // k's shape-function gradient, rows of Dm⁻¹, g_0 = −Σ): apply's force
       // on node k is −2 W det(Fp) β Fe sym(Feᵀ Ḟe) w_k, whose derivative by
       // v_k is the block below, negated.
-      // The block is symmetric: its six entries (i, j) = xx yy zz xy xz
-      // yz, each from the same products as its mirror would be.
       const Eigen::Matrix3d W = A.transpose();  // columns w_1..w_3
-      constexpr std::array<std::array<int, 2>, 6> kEntries{{{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}}};
-      std::array<double, 6> GGt{};  // G Gᵀ
-      for (std::size_t i = 0; i < 6; ++i) GGt[i] = G.row(kEntries[i][0]).dot(G.row(kEntries[i][1]));
+      const Eigen::Matrix3d GGt = G * G.transpose();
       auto& blocks = element_blocks_[at(e)];
       for (int k = 0; k < 4; ++k) {
         const Eigen::Vector3d w = k == 0 ? Eigen::Vector3d(-W.rowwise().sum()) : Eigen::Vector3d(W.col(k - 1));
         const Eigen::Vector3d Gw = G * w;
-        const double ww = w.squaredNorm();
-        auto& block = blocks[static_cast<std::size_t>(k)].entries;
-        for (std::size_t i = 0; i < 6; ++i) block[i] = scale * (ww * GGt[i] + Gw[kEntries[i][0]] * Gw[kEntries[i][1]]);
+        blocks[static_cast<std::size_t>(k)] = scale * (w.squaredNorm() * GGt + Gw * Gw.transpose());
       }
     }
   });
   out.resize(body.incidence.offsets.size() - 1);
   sum_over_corners(
-      body.incidence, SymmetricBlock{},
-      [&](Index corner) -> const SymmetricBlock& {
+      body.incidence, Eigen::Matrix3d::Zero().eval(),
+      [&](Index corner) -> const Eigen::Matrix3d& {
         return element_blocks_[at(corner / 4)][static_cast<std::size_t>(corner % 4)];
       },
-      [&](Index n, const SymmetricBlock& symmetric) {
-        const auto& sum = symmetric.entries;
-        Eigen::Matrix3d& block = out[at(n)];
-        block << sum[0], sum[3], sum[4],  //
-            sum[3], sum[1], sum[5],       //
-            sum[4], sum[5], sum[2];
-      });
+      [&](Index n, const Eigen::Matrix3d& sum) { out[at(n)] = sum; });
 }
 
 double max_strain_rate(const Body& body, const Points& v) {

@@ -17,15 +17,6 @@
 
 namespace goo {
 
-/// A symmetric 3×3 matrix by its six entries, xx yy zz xy xz yz.
-struct SymmetricBlock {
-  std::array<double, 6> entries{};
-  SymmetricBlock& operator+=(const SymmetricBlock& o) {
-    for (std::size_t i = 0; i < 6; ++i) entries[i] += o.entries[i];
-    return *this;
-  }
-};
-
 class Damping {
  public:
   /// Freezes C at the elastic deformation Fe and Fp⁻¹ of each element
@@ -84,10 +75,7 @@ class Damping {
   /// Fe, A = Dm⁻¹ Fp⁻¹ and the scale 2β W det Fp as frozen, eight elements a
   /// block (the one copy: diagonal_blocks reads A and the scale from here).
   std::vector<DampingBlock> blocks_;
-  /// Per element, its corners' blocks of C: symmetric to the bit (each
-  /// entry's products are those of its mirror, in the same order), so six
-  /// entries each, xx yy zz xy xz yz (two thirds of the nine's traffic).
-  std::vector<std::array<SymmetricBlock, 4>> element_blocks_;
+  std::vector<std::array<Eigen::Matrix3d, 4>> element_blocks_;
 };
 
 /// max over elements of ‖Ḟ‖_F for velocities v, 1/s.

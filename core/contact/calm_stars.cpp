@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
 #include "core/contact/box_pairs.h"
 #include "core/contact/ccd.h"
@@ -234,6 +235,7 @@ void CalmStars::update_surface(const Body& body, const std::vector<Index>& eleme
   bary_ = body.embedding.bary;
   near_.clear();
   near_ratio_.clear();
+  near_order_.clear();
   candidates_.clear();
   if (rest_.rows() != body.num_nodes()) return;
   surface_rest_ = body.embedding.surface_positions(body.tets, body.rest_positions);
@@ -316,6 +318,13 @@ void CalmStars::update_surface(const Body& body, const std::vector<Index>& eleme
       near_.push_back(pairs[i]);
       near_ratio_.push_back(ratio[i]);
     }
+  // Largest ratio first, then in list order: each build's groups take
+  // their near pairs in this order (a stable sort by ratio, done once).
+  near_order_.resize(near_.size());
+  std::iota(near_order_.begin(), near_order_.end(), Index{0});
+  std::sort(near_order_.begin(), near_order_.end(), [&](Index a, Index b) {
+    return near_ratio_[at(a)] > near_ratio_[at(b)] || (near_ratio_[at(a)] == near_ratio_[at(b)] && a < b);
+  });
 }
 
 void CalmStars::gradients(const Body& body, const Points& x0, const Points& d,
@@ -389,14 +398,11 @@ std::vector<Index> CalmStars::assign_groups(const Body& body, const Points& x0, 
   near_members_.resize(at(near_offsets_[at(nn)]));
   {
     std::vector<Index> next(near_offsets_.begin(), near_offsets_.end() - 1);
-    for (std::size_t i = 0; i < near_.size(); ++i) {
-      const Index g = group_[at(near_[i][0])];
-      if (g >= 0 && g == group_[at(near_[i][1])]) near_members_[at(next[at(g)]++)] = static_cast<Index>(i);
+    for (const Index i : near_order_) {  // by ratio, largest first: each group's come out in that order
+      const Index g = group_[at(near_[at(i)][0])];
+      if (g >= 0 && g == group_[at(near_[at(i)][1])]) near_members_[at(next[at(g)]++)] = i;
     }
   }
-  for (Index n = 0; n < nn; ++n)
-    std::stable_sort(near_members_.begin() + near_offsets_[at(n)], near_members_.begin() + near_offsets_[at(n) + 1],
-                     [&](Index a, Index b) { return near_ratio_[at(a)] > near_ratio_[at(b)]; });
   for (Index t = 0; t < nt; ++t)
     if (group_[at(t)] >= 0) ++offsets_[at(group_[at(t)]) + 1];
   for (Index n = 0; n < nn; ++n) {

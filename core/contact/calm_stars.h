@@ -107,6 +107,7 @@ class CalmStars {
   std::vector<std::uint8_t> star_has_surface_;   // per node: some triangle's candidate
   std::vector<std::array<Index, 2>> near_;       // triangle pairs with a ratio above kRatio
   std::vector<double> near_ratio_;
+  std::vector<Index> near_order_;  // near_ by ratio, largest first (then by index)
 
   std::vector<Index> group_;                     // per triangle, this list's
   std::vector<double> kappa_;                    // per node, this step
