@@ -13,6 +13,7 @@
 
 #include "core/contact/box_pairs.h"
 #include "core/parallel.h"
+#include "core/radix_sort.h"
 #include "core/surface_geometry.h"
 #include "meshing/exact_predicates.h"
 
@@ -141,9 +142,11 @@ bool triangles_intersect(const Vec3& a0, const Vec3& a1, const Vec3& a2, const V
   return triangles_meet({&a0, &a1, &a2}, {&b0, &b1, &b2});
 }
 
-bool triangles_intersect(const TriangleMesh& mesh, Index s, Index t) {
+namespace {
+
+/// triangles_intersect for two triangles of non-zero area.
+bool nondegenerate_triangles_intersect(const TriangleMesh& mesh, Index s, Index t) {
   const std::array<Vec3, 3> p = corner_points(mesh, s), q = corner_points(mesh, t);
-  if (!nondegenerate(p[0], p[1], p[2]) || !nondegenerate(q[0], q[1], q[2])) return false;
   int shared = 0, is = -1, js = -1;  // the number of shared ids, and the last shared corner in s and t
   int in_s[3] = {-1, -1, -1};        // for each corner of s, the matching corner of t
   for (int i = 0; i < 3; ++i) {
@@ -179,22 +182,71 @@ bool triangles_intersect(const TriangleMesh& mesh, Index s, Index t) {
   return proj.orient(u, v, pr) * proj.orient(u, v, qo) > 0;
 }
 
-std::vector<std::array<Index, 2>> self_intersecting_pairs(const TriangleMesh& mesh) {
-  std::vector<Box3> boxes(at(mesh.num_triangles()));
-  for (Index t = 0; t < mesh.num_triangles(); ++t)
-    for (int k = 0; k < 3; ++k) boxes[at(t)].extend(mesh.vertices.row(mesh.triangles(t, k)).transpose());
-  const std::vector<std::array<Index, 2>> candidates = overlapping_pairs(boxes);
+/// What the measurements take of each triangle, once: its box, whether it
+/// has area, its normal and how far round-off can turn it (a frame's
+/// coordinates carry an absolute error of about δ; a normal n = e1 × e2
+/// then turns by up to 2δ(|e1| + |e2|)/|n|).
+struct TriangleFacts {
+  std::vector<Box3> boxes;
+  std::vector<std::uint8_t> has_area;
+  std::vector<Vec3> normal;
+  std::vector<double> turn;
+};
+
+TriangleFacts triangle_facts(const TriangleMesh& mesh, double delta) {
+  const Index nt = mesh.num_triangles();
+  TriangleFacts f;
+  f.boxes.resize(at(nt));
+  f.has_area.resize(at(nt));
+  f.normal.resize(at(nt));
+  f.turn.resize(at(nt));
+  for_each_index(nt, [&](Index t) {
+    const std::array<Vec3, 3> p = corner_points(mesh, t);
+    Box3 box;
+    for (const Vec3& x : p) box.extend(x);
+    f.boxes[at(t)] = box;
+    f.has_area[at(t)] = nondegenerate(p[0], p[1], p[2]) ? 1 : 0;
+    f.normal[at(t)] = (p[1] - p[0]).cross(p[2] - p[0]);
+    f.turn[at(t)] = 2.0 * delta * ((p[1] - p[0]).norm() + (p[2] - p[0]).norm()) / f.normal[at(t)].norm();
+  });
+  return f;
+}
+
+/// self_intersecting_pairs with each triangle's box and area known.
+std::vector<std::array<Index, 2>> intersecting_pairs(const TriangleMesh& mesh, const TriangleFacts& facts) {
+  const std::vector<std::array<Index, 2>> candidates = overlapping_pairs(facts.boxes);
   std::vector<std::uint8_t> hit(candidates.size(), 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, candidates.size(), 256),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i)
-                        hit[i] = triangles_intersect(mesh, candidates[i][0], candidates[i][1]) ? 1 : 0;
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, candidates.size(), 256), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Index s = candidates[i][0], t = candidates[i][1];
+          hit[i] =
+              facts.has_area[at(s)] && facts.has_area[at(t)] && nondegenerate_triangles_intersect(mesh, s, t) ? 1 : 0;
+        }
+      });
   std::vector<std::array<Index, 2>> pairs;
   for (std::size_t i = 0; i < candidates.size(); ++i)
     if (hit[i]) pairs.push_back(candidates[i]);
   std::sort(pairs.begin(), pairs.end());
   return pairs;
+}
+
+/// The absolute error of a frame's coordinates, about 8ε max|x| (they come
+/// through the embedding, Σ b_i x_i).
+double coordinate_error(const TriangleMesh& mesh) {
+  return 8.0 * std::numeric_limits<double>::epsilon() * mesh.vertices.cwiseAbs().maxCoeff();
+}
+
+}  // namespace
+
+bool triangles_intersect(const TriangleMesh& mesh, Index s, Index t) {
+  const std::array<Vec3, 3> p = corner_points(mesh, s), q = corner_points(mesh, t);
+  if (!nondegenerate(p[0], p[1], p[2]) || !nondegenerate(q[0], q[1], q[2])) return false;
+  return nondegenerate_triangles_intersect(mesh, s, t);
+}
+
+std::vector<std::array<Index, 2>> self_intersecting_pairs(const TriangleMesh& mesh) {
+  return intersecting_pairs(mesh, triangle_facts(mesh, coordinate_error(mesh)));
 }
 
 SurfaceQuality measure_surface_quality(const TriangleMesh& mesh) {
@@ -203,41 +255,33 @@ SurfaceQuality measure_surface_quality(const TriangleMesh& mesh) {
   const SurfaceIntegrals integrals = surface_integrals(mesh);
   q.area = integrals.area;
   q.volume = integrals.volume;
-  q.self_intersecting_pairs = static_cast<Index>(self_intersecting_pairs(mesh).size());
-
   // Edges: (key, triangle) sorted; an edge with exactly two triangles is
   // creased when their normals point more than 90° apart by more than the
-  // coordinates can resolve. A frame's coordinates carry an absolute error
-  // of about δ = 8ε max|x| (they come through the embedding, Σ b_i x_i); a
-  // triangle's normal n = e1 × e2 then turns by up to 2δ(|e1| + |e2|)/|n|,
-  // so a box's 90° edges are not counted, wherever the box stands.
-  const double delta = 8.0 * std::numeric_limits<double>::epsilon() * mesh.vertices.cwiseAbs().maxCoeff();
-  std::vector<Vec3> normal(at(q.triangles));
-  std::vector<double> turn(at(q.triangles));
-  std::vector<std::pair<std::uint64_t, Index>> half_edges;
-  half_edges.reserve(at(q.triangles) * 3);
-  for (Index t = 0; t < q.triangles; ++t) {
-    const std::array<Vec3, 3> p = corner_points(mesh, t);
-    normal[at(t)] = (p[1] - p[0]).cross(p[2] - p[0]);
-    turn[at(t)] = 2.0 * delta * ((p[1] - p[0]).norm() + (p[2] - p[0]).norm()) / normal[at(t)].norm();
-    if (!nondegenerate(p[0], p[1], p[2])) ++q.degenerate_triangles;
+  // coordinates can resolve (TriangleFacts::turn), so a box's 90° edges are
+  // not counted, wherever the box stands.
+  const TriangleFacts facts = triangle_facts(mesh, coordinate_error(mesh));
+  q.self_intersecting_pairs = static_cast<Index>(intersecting_pairs(mesh, facts).size());
+  q.degenerate_triangles = static_cast<Index>(std::count(facts.has_area.begin(), facts.has_area.end(), 0));
+  std::vector<std::pair<std::uint64_t, Index>> half_edges(at(q.triangles) * 3);
+  for_each_index(q.triangles, [&](Index t) {
     for (int k = 0; k < 3; ++k) {
       const auto a = static_cast<std::uint32_t>(mesh.triangles(t, k));
       const auto c = static_cast<std::uint32_t>(mesh.triangles(t, (k + 1) % 3));
-      half_edges.emplace_back((std::uint64_t{std::min(a, c)} << 32) | std::max(a, c), t);
+      half_edges[at(3 * t + k)] = {(std::uint64_t{std::min(a, c)} << 32) | std::max(a, c), t};
     }
-  }
-  std::sort(half_edges.begin(), half_edges.end());
+  });
+  // Stable by key, written in triangle order: (key, triangle) ascending.
+  radix_sort(half_edges, [](const std::pair<std::uint64_t, Index>& h) { return h.first; });
   for (std::size_t e = 0; e < half_edges.size();) {
     std::size_t f = e;
     while (f < half_edges.size() && half_edges[f].first == half_edges[e].first) ++f;
     ++q.edges;
     if (f - e == 2) {
       const Index s = half_edges[e].second, t = half_edges[e + 1].second;
-      const Vec3 &n1 = normal[at(s)], &n2 = normal[at(t)];
+      const Vec3 &n1 = facts.normal[at(s)], &n2 = facts.normal[at(t)];
       // cos θ < −sin(tolerance): past 90° beyond what round-off can turn (a
       // degenerate triangle's NaN tolerance counts nothing).
-      if (n1.dot(n2) < -(turn[at(s)] + turn[at(t)]) * n1.norm() * n2.norm()) ++q.creased_edges;
+      if (n1.dot(n2) < -(facts.turn[at(s)] + facts.turn[at(t)]) * n1.norm() * n2.norm()) ++q.creased_edges;
     }
     e = f;
   }
@@ -255,8 +299,7 @@ FacingSheets facing_sheets(const TriangleMesh& mesh, double gap) {
   };
   std::vector<Entry> entries(at(nt));
   std::vector<double> area(at(nt));
-  Vec3 low = Vec3::Constant(std::numeric_limits<double>::infinity()), high = -low;
-  for (Index t = 0; t < nt; ++t) {
+  for_each_index(nt, [&](Index t) {
     const std::array<Vec3, 3> p = corner_points(mesh, t);
     Entry& e = entries[at(t)];
     e.centre = (p[0] + p[1] + p[2]) / 3.0;
@@ -264,8 +307,9 @@ FacingSheets facing_sheets(const TriangleMesh& mesh, double gap) {
     area[at(t)] = 0.5 * n.norm();
     e.unit_normal = area[at(t)] > 0.0 ? Vec3(n / (2.0 * area[at(t)])) : Vec3::Zero();  // no area: faces nothing
     e.triangle = t;
-    low = low.cwiseMin(e.centre), high = high.cwiseMax(e.centre);
-  }
+  });
+  Vec3 low = Vec3::Constant(std::numeric_limits<double>::infinity()), high = -low;
+  for (const Entry& e : entries) low = low.cwiseMin(e.centre), high = high.cwiseMax(e.centre);
   if (!low.allFinite() || !high.allFinite()) return out;
   // Centroids binned on a grid of cells at least `gap` wide (and at most
   // 2¹⁹ along an axis): a pair closer than the gap lies in one cell or two
@@ -275,9 +319,9 @@ FacingSheets facing_sheets(const TriangleMesh& mesh, double gap) {
   constexpr std::int64_t kSide = 1 << 20;
   auto cell_of = [&](const Vec3& c) -> Eigen::Vector3i { return ((c - low) / side).array().floor().cast<int>(); };
   auto key_of = [&](const Eigen::Vector3i& c) { return (std::int64_t{c.x()} * kSide + c.y()) * kSide + c.z(); };
-  for (Entry& e : entries) e.key = key_of(cell_of(e.centre));
-  std::sort(entries.begin(), entries.end(),
-            [](const Entry& a, const Entry& b) { return std::tie(a.key, a.triangle) < std::tie(b.key, b.triangle); });
+  for_each_index(nt, [&](Index t) { entries[at(t)].key = key_of(cell_of(entries[at(t)].centre)); });
+  // By key, then triangle (stable, from triangle order); keys are not negative.
+  radix_sort(entries, [](const Entry& e) { return static_cast<std::uint64_t>(e.key); });
   std::vector<std::size_t> cells;  // where each cell's run of entries starts
   for (std::size_t i = 0; i < entries.size(); ++i)
     if (i == 0 || entries[i].key != entries[i - 1].key) cells.push_back(i);
