@@ -1,8 +1,9 @@
 #include "app/run_command.h"
 
 #include <fmt/format.h>
-#include <tbb/global_control.h>
 #include <sys/resource.h>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -658,6 +659,7 @@ class Run {
       j["momentum_drift"] = nullptr;  // gravity, the ground, obstacles or pins act on the bodies
     }
     j["threads"] = options_.threads;
+    j["concurrency"] = tbb::this_task_arena::max_concurrency();  // the threads the run's passes split between
     j["simd"] = std::string(simd_level_name(active_simd_level()));
     j["peak_memory_bytes"] = peak_memory_bytes();
     j["setup_peak_memory_bytes"] = setup_peak_bytes;
@@ -690,6 +692,8 @@ class Run {
   Clock::time_point signalled_;
 };
 
+int run_in_arena(const RunOptions& options, RunPlan& plan, Clock::time_point wall_start);
+
 }  // namespace
 
 int run_scene(const RunOptions& options) {
@@ -699,12 +703,24 @@ int run_scene(const RunOptions& options) {
   SignalGuard signals;
   // 1. Everything that can be refused is read and checked before anything is written.
   RunPlan plan = plan_run(options);
-  Scene& scene = plan.scene;
   std::unique_ptr<tbb::global_control> threads;
   if (options.threads > 0)
     threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                     static_cast<std::size_t>(options.threads));
   claim_folder(options, plan);
+  // The run in an arena of that many slots (the machine's cores without
+  // --threads): the passes split evenly between the threads (static
+  // partitions, for_each_run) split by the arena's concurrency, so that
+  // --threads 2 on a 16-core machine splits them in two, not in sixteen
+  // pieces for two threads. The global limit stays for any other arena.
+  tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
+  return arena.execute([&] { return run_in_arena(options, plan, wall_start); });
+}
+
+namespace {
+
+int run_in_arena(const RunOptions& options, RunPlan& plan, Clock::time_point wall_start) {
+  Scene& scene = plan.scene;
 
   const std::unique_ptr<Simulation> simulation =
       plan.resumed
@@ -745,4 +761,5 @@ int run_scene(const RunOptions& options) {
   return exit_code;
 }
 
+}  // namespace
 }  // namespace goo::app

@@ -10,6 +10,7 @@
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <tbb/info.h>
 
 #include <chrono>
 #include <functional>
@@ -189,6 +190,29 @@ TEST_F(GooRestart, EveryVectorWidthWritesTheSameFrames) {
 // A GOO_SIMD the run does not know is refused by name (exit 2) before
 // anything is written, rather than ignored: a misspelt cap would run at
 // full width and a speed comparison compare nothing.
+TEST(GooRun, TheRunsPassesSplitBetweenTheThreadsAsked) {
+  // --threads N runs the simulation in an arena of N slots: the passes
+  // split evenly between the threads (static partitions) split in N, on
+  // any machine; without it, every core. summary.json says which.
+  test::TempDir dir;
+  dir.write("cube.json", R"({
+    "objects": [{"primitive": {"type": "box", "size": [0.1, 0.1, 0.1], "subdivisions": 2},
+                 "transform": {"translate": [0, 0, 0.2]}, "material": "jiggly_gelatin", "lattice_spacing": 0.05}],
+    "output": {"fps": 24, "frames": 1}
+  })");
+  for (const int threads : {0, 1, 3}) {
+    SCOPED_TRACE(threads);
+    const fs::path out = dir / fmt::format("out{}", threads);
+    std::string command = args({"run", quoted(dir / "cube.json"), "--out", quoted(out), "--quiet"});
+    if (threads > 0) command += fmt::format(" --threads {}", threads);
+    const CommandResult run = goo(command);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const auto summary = nlohmann::json::parse(slurp(out / "summary.json"));
+    EXPECT_EQ(summary["threads"], threads);
+    EXPECT_EQ(summary["concurrency"], threads > 0 ? threads : static_cast<int>(tbb::info::default_concurrency()));
+  }
+}
+
 TEST(GooRun, AnUnknownVectorWidthIsRefused) {
   test::TempDir dir;
   dir.write("drop.json", kDrop);
