@@ -315,15 +315,21 @@ SelfCollisions::ListCheck SelfCollisions::list_holds(const Points& xs0, const Po
   const auto nv = static_cast<Index>(xs0.rows()); const Index nc = clusters_;
   std::array<Points, 2>& mean = cluster_motion_;
   mean = {Points::Zero(nc, 3), Points::Zero(nc, 3)};
-  for (Index v = 0; v < nv; ++v) {  // in the vertices' order: the same bits on any thread count
-    const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v);
-    mean[0].row(cluster_[at(v)]) += start;
-    mean[1].row(cluster_[at(v)]) += start + ds.row(v);
-  }
-  for (Index c = 0; c < nc; ++c) {
-    mean[0].row(c) /= double(cluster_size_[at(c)]);
-    mean[1].row(c) /= double(cluster_size_[at(c)]);
-  }
+  // Each cluster's sums over its vertices in their order (cluster_vertices_):
+  // the same bits on any thread count.
+  tbb::parallel_for(tbb::blocked_range<Index>(0, nc, 1), [&](const tbb::blocked_range<Index>& r) {
+    for (Index c = r.begin(); c != r.end(); ++c) {
+      Eigen::RowVector3d start_sum = Eigen::RowVector3d::Zero(), end_sum = Eigen::RowVector3d::Zero();
+      for (Index i = cluster_offsets_[at(c)]; i < cluster_offsets_[at(c) + 1]; ++i) {
+        const Index v = cluster_vertices_[at(i)];
+        const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v);
+        start_sum += start;
+        end_sum += start + ds.row(v);
+      }
+      mean[0].row(c) = start_sum / double(cluster_size_[at(c)]);
+      mean[1].row(c) = end_sum / double(cluster_size_[at(c)]);
+    }
+  });
   for (Index a = 0; a < nc; ++a)
     for (Index b = a + 1; b < nc; ++b) {
       const double allowed = allowance_[at(a * nc + b)];
@@ -503,6 +509,15 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const P
   edge_length /= double(std::max<std::size_t>(1, edges_.size()));
   make_clusters(xs0);
   set_frames(xs0, ds, edge_length, thickness);
+  // Each cluster's vertices, ascending (list_holds sums over them).
+  cluster_offsets_.assign(at(clusters_) + 1, 0);
+  for (Index v = 0; v < nv; ++v) ++cluster_offsets_[at(cluster_[at(v)]) + 1];
+  for (Index c = 0; c < clusters_; ++c) cluster_offsets_[at(c) + 1] += cluster_offsets_[at(c)];
+  cluster_vertices_.resize(at(nv));
+  {
+    std::vector<Index> next(cluster_offsets_.begin(), cluster_offsets_.end() - 1);
+    for (Index v = 0; v < nv; ++v) cluster_vertices_[at(next[at(cluster_[at(v)])]++)] = v;
+  }
   list_edge_length_ = edge_length;
   extensions_ = 0;
   reach_margin_.resize(at(nv));
@@ -1100,12 +1115,12 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   std::vector<std::uint8_t> moved(at(body.num_nodes())), again(at(body.embedding.num_vertices()));
   std::vector<Index> flagged;
   auto flag_moved = [&](const Points& d_before, const std::vector<Impact>& impacts_before) {
-    for (Index n = 0; n < body.num_nodes(); ++n) moved[at(n)] = d.row(n) != d_before.row(n) ? 1 : 0;
-    for (Index v = 0; v < body.embedding.num_vertices(); ++v) {
+    for_each_index(body.num_nodes(), [&](Index n) { moved[at(n)] = d.row(n) != d_before.row(n) ? 1 : 0; });
+    for_each_index(body.embedding.num_vertices(), [&](Index v) {
       const Index e = body.embedding.parent[at(v)];
       again[at(v)] = moved[at(body.tets(e, 0))] | moved[at(body.tets(e, 1))] | moved[at(body.tets(e, 2))] |
                      moved[at(body.tets(e, 3))];
-    }
+    });
     for (const Impact& impact : impacts_before)
       for (const Index v : candidates_[impact.pair].vertices) again[at(v)] = 1;
     flagged.clear();

@@ -270,6 +270,7 @@ class SelfCollisions {
   static constexpr Index kMaxClusters = 256;
   std::vector<Index> cluster_;        // per vertex
   std::vector<Index> cluster_size_;   // per cluster, its vertices
+  std::vector<Index> cluster_offsets_, cluster_vertices_;  // each cluster's vertices, ascending (at the build)
   Index clusters_ = 0;
   static constexpr int kSlackRounds = 4;
   std::vector<double> allowance_;     // clusters_ × clusters_ (a < b: [a × clusters_ + b])
