@@ -203,19 +203,24 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
   r_.resize(nn, 3);
   if (guessed) r_trial_.resize(nn, 3);
   const NodeIncidence& incidence = body.incidence;
+  const Eigen::VectorXd& m = body.masses;
   const std::vector<Eigen::Vector3d>& corners = damping_.corner_forces();
   const std::vector<Eigen::Vector3d>& trial_corners = damping_.second_corner_forces();
+  // ((M + hC) x)_n from an element pass's corner forces on x (−C x at n:
+  // its corners in the incidence's order).
+  auto product_at = [&](Index n, const Points& x, const std::vector<Eigen::Vector3d>& forces) {
+    Eigen::Vector3d Cx = Eigen::Vector3d::Zero();
+    for (Index i = incidence.offsets[at(n)]; i < incidence.offsets[at(n) + 1]; ++i)
+      Cx += forces[at(incidence.corners[at(i)])];
+    return Eigen::Vector3d(m[n] * x.row(n).transpose() - h * Cx);
+  };
   // r = rhs − (M + hC) x at the free nodes, zero at the others.
   auto residual_at = [&](Index n, const Points& x, const std::vector<Eigen::Vector3d>& forces, Points& r) {
     if (constrained_[at(n)]) {
       r.row(n).setZero();
       return;
     }
-    Eigen::Vector3d Cx = Eigen::Vector3d::Zero();  // −C x at n, its corners in the incidence's order
-    for (Index i = incidence.offsets[at(n)]; i < incidence.offsets[at(n) + 1]; ++i)
-      Cx += forces[at(incidence.corners[at(i)])];
-    const Eigen::Vector3d Ax = body.masses[n] * x.row(n).transpose() - h * Cx;
-    r.row(n) = rhs.row(n) - Ax.transpose();
+    r.row(n) = rhs.row(n) - product_at(n, x, forces).transpose();
   };
   for_each_run(nn, kCgRun, [&](Index, Index begin, Index end) {
     for (Index n = begin; n < end; ++n) {
@@ -246,7 +251,6 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
     for (Index run = 0; run < runs; ++run) sum += run_sums_[2 * at(run) + which];
     return sum;
   };
-  const Eigen::VectorXd& m = body.masses;
   while (residual > settings_.cg_tolerance && iteration < settings_.cg_max_iterations) {
     // Ap = (M + hC) p at the free nodes (zero at the others), and pᵀAp.
     damping_.element_pass(body, p_);
@@ -257,10 +261,7 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
           Ap_.row(n).setZero();
           continue;
         }
-        Eigen::Vector3d Cp = Eigen::Vector3d::Zero();  // −C p at n, its corners in the incidence's order
-        for (Index i = incidence.offsets[at(n)]; i < incidence.offsets[at(n) + 1]; ++i)
-          Cp += corners[at(incidence.corners[at(i)])];
-        const Eigen::Vector3d Ap = m[n] * p_.row(n).transpose() - h * Cp;
+        const Eigen::Vector3d Ap = product_at(n, p_, corners);
         Ap_.row(n) = Ap.transpose();
         pAp += p_.row(n).dot(Ap.transpose());
       }

@@ -131,13 +131,27 @@ Points sheared(const Body& body) {
   return x;
 }
 
-TEST(Damping, ZeroForRigidMotionOfADeformedBodyTorqueFreeAndDissipative) {
-  Body body = make_cube(ElasticModel::fixed_corotated, 3);
-  body.material.viscosity = 10.0;
-  const Points x = sheared(body);
+/// A cube of three cells a side, of viscosity β, sheared (x) with its
+/// elastic forces evaluated there: what a damping operator freezes at.
+struct ShearedCube {
+  Body body;
+  Points x;
   ElasticForces forces;
+};
+ShearedCube sheared_cube(double viscosity) {
+  ShearedCube c{make_cube(ElasticModel::fixed_corotated, 3), {}, {}};
+  c.body.material.viscosity = viscosity;
+  c.x = sheared(c.body);
   Points f;
-  forces.evaluate(body, x, 0.0, f);
+  c.forces.evaluate(c.body, c.x, 0.0, f);
+  return c;
+}
+
+TEST(Damping, ZeroForRigidMotionOfADeformedBodyTorqueFreeAndDissipative) {
+  const ShearedCube cube = sheared_cube(10.0);
+  const Body& body = cube.body;
+  const Points& x = cube.x;
+  const ElasticForces& forces = cube.forces;
   Damping damping;
   auto apply = [&](const Points& v, Points& out) {
     damping.apply(body, forces.elastic_deformation(), forces.inverse_plastic_deformation(), v, out);
@@ -209,14 +223,10 @@ TEST(Damping, OnePassForTwoVelocityFieldsGivesEachTheBitsOfItsOwnPass) {
   // element_pass(v, w): the damping solve's residuals at v and at its warm
   // start from one pass over the elements. Each field's corner forces must
   // be those of a pass for it alone, to the bit.
-  Body body = make_cube(ElasticModel::fixed_corotated, 3);
-  body.material.viscosity = 3.0;
-  const Points x = sheared(body);
-  ElasticForces forces;
-  Points f;
-  forces.evaluate(body, x, 0.0, f);
+  const ShearedCube cube = sheared_cube(3.0);
+  const Body& body = cube.body;
   Damping damping;
-  damping.freeze(body, forces.elastic_deformation(), forces.inverse_plastic_deformation());
+  damping.freeze(body, cube.forces.elastic_deformation(), cube.forces.inverse_plastic_deformation());
   std::mt19937 rng(4);
   std::uniform_real_distribution<double> u(-1, 1);
   Points v(body.num_nodes(), 3), w(body.num_nodes(), 3);
