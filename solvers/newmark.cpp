@@ -141,11 +141,6 @@ void NewmarkIntegrator::solve_damped(const Body& body, double h, const Points& r
   last = v;
 }
 
-void NewmarkIntegrator::zero_constrained(Points& a) const {
-  for (Index n = 0; n < a.rows(); ++n)
-    if (constrained_[at(n)]) a.row(n).setZero();
-}
-
 double NewmarkIntegrator::velocity_norm(const Body& body, const Points& r) {
   double sum = 0.0;
   for (Index n = 0; n < body.num_nodes(); ++n) sum += r.row(n).squaredNorm() / body.masses[n];
