@@ -113,7 +113,9 @@ class VolumeProjection {
   /// obstacles' position corrections take after the projection
   /// (resolve_positions_keeping_volume).
   /// Only when some node is off by more than `from` (relative, as the
-  /// tolerance); nothing moves otherwise. The first solve starts from the
+  /// tolerance); nothing moves otherwise (the errors reported are then
+  /// those of every node with a rest volume: a bound on the constrained
+  /// nodes'). The first solve starts from the
   /// last restore's first multipliers (since reset()): the contacts take
   /// much the same volume step after step, so it starts near its answer.
   VolumeProjectionStats restore(Body& body, const std::vector<std::uint8_t>& fixed, const SlidingNodes& sliding,
@@ -133,6 +135,12 @@ class VolumeProjection {
   /// the nodes' rest volumes, which nodes are constrained, the preconditioner.
   void prepare(const Body& body, const Points& at_positions, const std::vector<std::uint8_t>& fixed);
   void prepare_anew(const Body& body, const Points& at_positions, const std::vector<std::uint8_t>& fixed);
+  /// prepare_anew's first half: G, the inverse masses, the elements that
+  /// can move, the nodes' rest volumes.
+  void prepare_constraints(const Body& body, const Points& at_positions, const std::vector<std::uint8_t>& fixed);
+  /// Its second half: G's rows and columns, which nodes are constrained,
+  /// the preconditioner (from the first half's results).
+  void prepare_rows(const Body& body);
   /// Preconditioned CG on A λ = rhs from λ's value; returns the iterations.
   int solve(const Body& body, const Eigen::VectorXd& rhs, double target, Eigen::VectorXd& lambda);
   /// s with which every target V̄_i is scaled so that the embedded surface

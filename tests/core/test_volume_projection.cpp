@@ -308,6 +308,30 @@ TEST(VolumeProjection, RestoreGivesBackThePressedVolumeAlongThePressInThePositio
   EXPECT_GT((free_body.positions.col(2) - before.col(2)).maxCoeff(), 1e-4);
 }
 
+TEST(VolumeProjection, ARestoreWithinItsThresholdMovesNothingAndLeavesNoTrace) {
+  // A restore whose nodes are all within `from` stops at its first
+  // measurement (the constraints' half of a preparation alone): nothing
+  // moves, the error it reports is the body's, and a later restore is a
+  // fresh one's to the bit. Just under the error, it runs as from 0.
+  const Pressed pressed = pressed_box();
+  const double error = max_nodal_volume_error(pressed.body, pressed.body.positions);
+  VolumeProjection projection;
+  Body held = pressed.body;
+  const VolumeProjectionStats kept = projection.restore(held, {}, pressed.sliding, 2.0 * error);
+  EXPECT_EQ(kept.newton_iterations, 0);
+  EXPECT_EQ(kept.cg_iterations, 0);
+  EXPECT_DOUBLE_EQ(kept.error_before, error);  // every node of the box has a rest volume
+  EXPECT_TRUE(held.positions == pressed.body.positions);
+  Body moved = pressed.body, reference = pressed.body;
+  const VolumeProjectionStats ran = projection.restore(moved, {}, pressed.sliding, 0.5 * error);
+  VolumeProjection fresh;
+  const VolumeProjectionStats from_zero = fresh.restore(reference, {}, pressed.sliding);
+  EXPECT_GT(ran.newton_iterations, 0);
+  EXPECT_EQ(ran.cg_iterations, from_zero.cg_iterations);
+  EXPECT_DOUBLE_EQ(ran.error_before, error);
+  EXPECT_TRUE(moved.positions == reference.positions);
+}
+
 TEST(VolumeProjection, ARestoreStartsFromTheLastOnesMultipliers) {
   // A press takes the same volume step after step: the second restore of
   // the same pressed state starts at the first one's answer and needs
