@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cstring>
 #include <limits>
@@ -79,6 +80,15 @@ void SurfaceCollisions::index_vertices(const Body& body) {
     bary_low_[e] = bary_low_[e].cwiseMin(b);
     bary_high_[e] = bary_high_[e].cwiseMax(b);
   }
+  bary_mid_.resize(at(ne));
+  bary_reach_.resize(at(ne));
+  for (Index e = 0; e < ne; ++e) {
+    if (offsets_[at(e)] == offsets_[at(e) + 1]) continue;
+    Eigen::Vector4d mid = 0.5 * (bary_low_[at(e)] + bary_high_[at(e)]);
+    mid.array() += 0.25 * (1.0 - mid.sum());
+    bary_mid_[at(e)] = mid;
+    bary_reach_[at(e)] = (bary_high_[at(e)] - mid).cwiseMax(mid - bary_low_[at(e)]);
+  }
 }
 
 std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, const Points& x, const Points* v,
@@ -97,12 +107,14 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
 
   // 1. Per element, the obstacles that may touch its surface vertices. A
   // half-space is bounded from the nodes' distances to its plane
-  // (surely_above), measured here once per node; any other obstacle thus: the
-  // element's box, widened by its own size, holds them: a vertex drifts out
-  // of its parent to a barycentric coordinate of −0.2, at most 0.6 of the
-  // box's extent beyond it, and moves by dt v. So does the ball around the
-  // box's centre through its corners; a signed distance is 1-Lipschitz, so
-  // an obstacle farther from that centre than the ball's radius touches none.
+  // (surely_above), measured here once per node; any other obstacle thus:
+  // a vertex is tested where the step takes it, p = Σ b_k y_k with the
+  // nodes at y_k = x_k + dt v_k, and with b̄ amid the element's vertices'
+  // coordinates (Σ b̄_k = Σ b_k = 1), p − Σ b̄_k y_k = Σ_{k≠j} (b_k − b̄_k)
+  // (y_k − y_j) for any corner j: every vertex lies in the ball around c =
+  // Σ b̄_k y_k of radius min_j Σ_{k≠j} reach_k |y_k − y_j|. A signed distance
+  // is 1-Lipschitz, so an obstacle farther from c than that (by a margin far
+  // above the rounding of either) touches none.
   const Index nn = body.num_nodes();
   node_size_.resize(at(nn));
   node_distance_.resize(obstacles.size());
@@ -125,18 +137,27 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
   }
   // The obstacles near element e, a bit each into mask (words long).
   auto mark_near = [&](Index e, std::uint64_t* mask) {
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    double radius = 0.0;
     Eigen::AlignedBox3d box;
     if (!all_planar) {
+      std::array<Eigen::Vector3d, 4> y;
       for (int k = 0; k < 4; ++k) {
-        box.extend(x.row(body.tets(e, k)).transpose());
-        if (v) box.extend((x.row(body.tets(e, k)) + dt * v->row(body.tets(e, k))).transpose());
+        y[at(k)] = x.row(body.tets(e, k)).transpose();
+        if (v) y[at(k)] += dt * v->row(body.tets(e, k)).transpose();
+        centre += bary_mid_[at(e)][k] * y[at(k)];
       }
-      const Eigen::Vector3d grow = Eigen::Vector3d::Constant(box.diagonal().maxCoeff());
-      box.extend(box.min() - grow).extend(box.max() + grow);
+      radius = std::numeric_limits<double>::infinity();
+      for (int j = 0; j < 4; ++j) {
+        double r = 0.0;
+        for (int k = 0; k < 4; ++k)
+          if (k != j) r += bary_reach_[at(e)][k] * (y[at(k)] - y[at(j)]).norm();
+        radius = std::min(radius, r);
+      }
+      radius = radius * (1.0 + 1e-9) + 1e-9 * centre.cwiseAbs().maxCoeff();
+      box = Eigen::AlignedBox3d(centre - Eigen::Vector3d::Constant(radius), centre + Eigen::Vector3d::Constant(radius));
+      centre_[at(e)] = centre;
     }
-    const Eigen::Vector3d centre = box.center();
-    const double radius = 0.5 * box.diagonal().norm();
-    if (!all_planar) centre_[at(e)] = centre;
     for (std::size_t o = 0; o < obstacles.size(); ++o) {
       bool near = false;
       if (placed[o].planar) {
@@ -145,7 +166,8 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
       } else if (bounds[o].intersects(box)) {
         const double d = placed[o].query(centre).distance;
         centre_distance_[at(e) * obstacles.size() + o] = d;
-        near = d <= radius;
+        const double margin = 1e-9 * (centre.cwiseAbs().maxCoeff() + std::abs(d));
+        near = d - margin <= radius;
       }
       if (near) mask[o / 64] |= std::uint64_t{1} << (o % 64);
     }

@@ -61,7 +61,8 @@ class SurfaceCollisions {
     SignedDistance contact;
   };
   /// Element → its surface vertices (offsets_, vertices_) and their
-  /// barycentric ranges (bary_low_, bary_high_), for the calls of detect that follow.
+  /// barycentric ranges (bary_low_, bary_high_, bary_mid_, bary_reach_),
+  /// for the calls of detect that follow.
   void index_vertices(const Body& body);
   /// The deepest hit of every element (of those that have one, and are
   /// flagged in `only` if given), in element order.
@@ -73,6 +74,10 @@ class SurfaceCollisions {
 
   std::vector<Index> offsets_, vertices_;  // element → its surface vertices
   std::vector<Eigen::Vector4d> bary_low_, bary_high_;  // per element, each coordinate's range over its vertices
+  /// Per element, barycentric coordinates b̄ (summing to 1) amid its
+  /// vertices' and how far each coordinate of a vertex lies from b̄ at most:
+  /// every vertex lies within Σ_{k≠j} reach_k |y_k − y_j| of Σ b̄_k y_k.
+  std::vector<Eigen::Vector4d> bary_mid_, bary_reach_;
   std::vector<Index> indexed_parent_;                   // the embedding those were made for
   Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor> indexed_bary_;
   std::vector<std::vector<double>> node_distance_;     // per half-space obstacle, per node: signed distance
@@ -80,7 +85,7 @@ class SurfaceCollisions {
   std::vector<Eigen::Vector3d> normal_change_;          // per node, the velocity stage's normal change
   std::vector<Index> contact_obstacle_;                 // per node, the obstacle of its last contact (−1: none)
   std::vector<std::uint64_t> near_;         // per element, the obstacles near it (a bit each)
-  std::vector<Eigen::Vector3d> centre_;     // per element, the centre of its grown box (curved obstacles)
+  std::vector<Eigen::Vector3d> centre_;     // per element, Σ b̄_k y_k amid its vertices (curved obstacles)
   std::vector<double> centre_distance_;     // per element and obstacle, its signed distance from centre_ (where near)
   std::vector<std::uint64_t> masks_;        // per node, colours used (two words)
   std::vector<Index> flagged_;              // a restricted detection's elements that have vertices
