@@ -273,6 +273,12 @@ class SelfCollisions {
   std::vector<Index> cluster_offsets_, cluster_vertices_;  // each cluster's vertices, ascending (at the build)
   Index clusters_ = 0;
   static constexpr int kSlackRounds = 4;
+  /// A cluster's slack covers this many times its parting over the build's
+  /// step from a cluster whose surface overlaps its own, and two clusters
+  /// are allowed twice that; after a list that ended with two clusters
+  /// parted, kPartedFactor times up to kPartedCap mean edges (set_frames).
+  static constexpr double kPartingFactor = 2.0, kPartedFactor = 8.0, kPartedCap = 0.1;
+  double parting_factor_ = kPartingFactor;
   std::vector<double> allowance_;     // clusters_ × clusters_ (a < b: [a × clusters_ + b])
   std::vector<double> slack_;         // per cluster
   std::vector<double> reach_margin_;  // per vertex: its margin and its cluster's slack (the boxes' growth)

@@ -143,6 +143,36 @@ TEST(SelfCollisions, PartsOfOneSurfaceClosingInOnEachOtherRigidlyAreCaughtFromAf
   EXPECT_EQ(builds_apart, 1);
 }
 
+TEST(SelfCollisions, AListAfterClustersPartedLetsThemPartFurther) {
+  // The upper box rises 0.35 mm a step from 1 cm above the lower one. The
+  // first list allows the boxes' clusters to part by their slacks' floor
+  // (a twentieth of the mean edge each); once they have, the next list's
+  // slacks cover eight times the step's parting (up to a tenth of the mean
+  // edge), so it lasts about twice as long. What is reported never depends
+  // on the list: each step's displacements are a fresh stage's, bit for bit.
+  const double gap = 0.01, step = 0.00035;
+  const Body body = stacked_boxes(gap);
+  const double split = 0.05 + 0.5 * gap;
+  Points x = body.positions;
+  SelfCollisions kept;
+  std::vector<int> built;
+  for (int k = 0; k < 40; ++k) {
+    SCOPED_TRACE(k);
+    Points d = Points::Zero(body.num_nodes(), 3);
+    for (Index n = 0; n < body.num_nodes(); ++n)
+      if (body.positions(n, 2) > split) d(n, 2) = step;
+    Points fresh_d = d;
+    const SelfCollisionStats stats = kept.resolve(body, x, d, {}, {1e-4, 0.0, 8});
+    SelfCollisions fresh;
+    fresh.resolve(body, x, fresh_d, {}, {1e-4, 0.0, 8});
+    ASSERT_TRUE(d == fresh_d);
+    if (stats.list_builds > 0) built.push_back(k);
+    x += d;
+  }
+  ASSERT_GE(built.size(), 3u);  // here at steps 0, 8, 23 and 38
+  EXPECT_GE(built[2] - built[1], 2 * (built[1] - built[0]) - 1);
+}
+
 TEST(SelfCollisions, AListOutrunByAFewVerticesIsExtendedAndListsWhatAFreshOneWould) {
   // The lowest node of the upper box's lattice near its bottom face's
   // centre (outside the box, no element below it) sinks 6 mm a step: the
