@@ -630,7 +630,9 @@ VolumeProjectionStats VolumeProjection::restore(Body& body, const std::vector<st
   prepare_rows(body);
   double last = std::numeric_limits<double>::infinity();
   for (int iteration = 0; iteration <= kRestoreIterations; ++iteration) {
-    const double error = measure(&active_);
+    // The first error_ is the bound's (the same positions and constraints):
+    // only its maximum over the constrained nodes is new.
+    const double error = iteration == 0 ? max_relative(error_, node_rest_, &active_) : measure(&active_);
     if (iteration == 0) {
       stats.error_before = stats.error = error;
       if (!(error > from)) break;  // left to the next step's drift correction
