@@ -54,15 +54,12 @@ void SurfaceCollisions::index_vertices(const Body& body) {
   // The same embedding as the last call's (a step's three calls, unless the
   // surface was smoothed or re-meshed between them): the same index.
   // Compared bit for bit (memcmp: several times faster than Eigen's
-  // coefficient-wise ==; equal bits give the same index).
-  if (offsets_.size() == at(ne) + 1 && indexed_parent_ == body.embedding.parent &&
-      indexed_bary_.rows() == body.embedding.bary.rows() &&
-      (body.embedding.bary.size() == 0 ||
-       std::memcmp(indexed_bary_.data(), body.embedding.bary.data(),
-                   sizeof(double) * static_cast<std::size_t>(body.embedding.bary.size())) == 0))
+  // coefficient-wise ==; equal bits give the same index), in parallel.
+  if (offsets_.size() == at(ne) + 1 && same_bits(indexed_parent_, body.embedding.parent) &&
+      same_bits(indexed_bary_, body.embedding.bary))
     return;
-  indexed_parent_ = body.embedding.parent;
-  indexed_bary_ = body.embedding.bary;
+  copy_in_parallel(body.embedding.parent, indexed_parent_);
+  copy_in_parallel(body.embedding.bary, indexed_bary_);
   // Element → its surface vertices (counting sort: vertices increasing).
   offsets_.assign(at(ne) + 1, 0);
   for (Index s = 0; s < nv; ++s) ++offsets_[at(body.embedding.parent[at(s)]) + 1];
@@ -241,10 +238,13 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
     return hits;
   }
 
-  near_.assign(at(ne) * words, 0);
+  near_.resize(at(ne) * words);
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
-    for (Index e = r.begin(); e != r.end(); ++e)
-      if (offsets_[at(e)] != offsets_[at(e) + 1]) mark_near(e, near_.data() + at(e) * words);
+    for (Index e = r.begin(); e != r.end(); ++e) {
+      std::uint64_t* mask = near_.data() + at(e) * words;
+      std::fill(mask, mask + words, 0);
+      if (offsets_[at(e)] != offsets_[at(e) + 1]) mark_near(e, mask);
+    }
   });
   // Every vertex in vertex order: the embedding's arrays are read in
   // sequence (a fine surface has a hundred vertices and more per element,
@@ -260,14 +260,22 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
       test_vertex(e, s, mask, [&](Index o, const SignedDistance& sd) { chunks[chunk].push_back({e, s, o, sd}); });
     }
   });
-  per_element_.assign(at(ne), Hit{-1, -1, -1, {}});
+  // Each element's deepest hit (per_element_ is left empty between calls:
+  // only the elements hit, flagged in hit_, are read and cleared).
+  if (per_element_.size() != at(ne)) per_element_.assign(at(ne), Hit{-1, -1, -1, {}});
+  hit_.resize(at(ne), 0);
   for (const auto& chunk : chunks)
     for (const Hit& h : chunk) {
       Hit& best = per_element_[at(h.element)];
+      hit_[at(h.element)] = 1;
       if (deeper(h, best)) best = h;
     }
-  for (const Hit& h : per_element_)
-    if (h.element >= 0) hits.push_back(h);
+  for (Index e = 0; e < ne; ++e)
+    if (hit_[at(e)]) {
+      hits.push_back(per_element_[at(e)]);
+      per_element_[at(e)] = Hit{-1, -1, -1, {}};
+      hit_[at(e)] = 0;
+    }
   return hits;
 }
 

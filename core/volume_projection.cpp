@@ -48,27 +48,40 @@ double volume_gradient(const Eigen::Vector3d& x0, const Eigen::Vector3d& x1, con
   return d1.dot(g.col(1));
 }
 
+/// The largest |error_i| / rest_i over the nodes with rest_i > 0 (and
+/// flagged in `active`), in parallel runs: a maximum is exact in any order.
 double max_relative(const Eigen::VectorXd& error, const Eigen::VectorXd& rest, const std::vector<std::uint8_t>* active) {
-  double worst = 0.0;
-  for (Index n = 0; n < error.size(); ++n) {
-    if (active && !(*active)[at(n)]) continue;
-    if (rest[n] > 0.0) worst = std::max(worst, std::abs(error[n]) / rest[n]);
-  }
-  return worst;
+  constexpr Index kRun = 2048;
+  const auto count = static_cast<Index>(error.size());
+  const Index runs = (count + kRun - 1) / kRun;
+  std::vector<double> worst(at(runs), 0.0);
+  for_each_index(
+      runs,
+      [&](Index run) {
+        double w = 0.0;
+        for (Index n = run * kRun; n < std::min(count, (run + 1) * kRun); ++n) {
+          if (active && !(*active)[at(n)]) continue;
+          if (rest[n] > 0.0) w = std::max(w, std::abs(error[n]) / rest[n]);
+        }
+        worst[at(run)] = w;
+      },
+      1);
+  double out = 0.0;
+  for (const double w : worst) out = std::max(out, w);
+  return out;
 }
 
 
 /// True if an element of `body` is inverted or flat at positions x.
 bool any_inverted(const Body& body, const Points& x) {
-  for (Index e = 0; e < body.num_elements(); ++e) {
+  return any_index(body.num_elements(), [&](Index e) {
     const Eigen::Vector3d x0 = x.row(body.tets(e, 0)).transpose();
     const Eigen::Matrix3d Ds = (Eigen::Matrix3d() << x.row(body.tets(e, 1)) - x0.transpose(),
                                 x.row(body.tets(e, 2)) - x0.transpose(), x.row(body.tets(e, 3)) - x0.transpose())
                                    .finished()
                                    .transpose();
-    if (!(Ds.determinant() > 0.0)) return true;
-  }
-  return false;
+    return !(Ds.determinant() > 0.0);
+  });
 }
 
 /// An element below this fraction of its rest volume is not constrained.
@@ -162,14 +175,13 @@ void VolumeProjection::gradients(const Body& body, const Points& start) {
   // The velocity projection prepares G where the force evaluation just
   // took it (add_pressure_forces, then project_velocities at xⁿ⁺¹): the
   // same positions, mesh and fractions give the same G.
-  if (gradient_at_.valid && gradient_at_.positions.rows() == start.rows() && gradient_at_.positions == start &&
-      gradient_at_.tets.rows() == body.tets.rows() && gradient_at_.tets == body.tets &&
-      gradient_at_.weight.size() == weight_.size() && gradient_at_.weight == weight_)
+  if (gradient_at_.valid && same_bits(gradient_at_.positions, start) && same_bits(gradient_at_.tets, body.tets) &&
+      same_bits(gradient_at_.weight, weight_))
     return;
   gradient_at_.valid = true;
-  gradient_at_.positions = start;
-  gradient_at_.tets = body.tets;
-  gradient_at_.weight = weight_;
+  copy_in_parallel(start, gradient_at_.positions);
+  copy_in_parallel(body.tets, gradient_at_.tets);
+  copy_in_parallel(weight_, gradient_at_.weight);
   gradient_.resize(at(ne));
   // The same columns also in the incidence's order, for the node sums.
   const NodeIncidence& incidence = body.incidence;
@@ -269,14 +281,13 @@ void VolumeProjection::apply(const Body& body, const Eigen::VectorXd& lambda, Ei
 
 bool VolumeProjection::Prepared::same(const Body& body, const Points& at_positions,
                                       const std::vector<std::uint8_t>& fixed_nodes) const {
-  return valid && positions.rows() == at_positions.rows() && positions == at_positions &&
-         masses.size() == body.masses.size() && masses == body.masses && fractions.size() == body.solid_fractions.size() &&
-         fractions == body.solid_fractions && Fp == body.Fp && fixed == fixed_nodes;
+  return valid && same_bits(positions, at_positions) && same_bits(masses, body.masses) &&
+         same_bits(fractions, body.solid_fractions) && same_bits(Fp, body.Fp) && same_bits(fixed, fixed_nodes);
 }
 
 bool VolumeProjection::update_neighbourhoods(const Body& body) {
   Neighbourhoods& h = neighbourhoods_;
-  if (h.tets.rows() == body.tets.rows() && h.tets == body.tets) return false;
+  if (same_bits(h.tets, body.tets)) return false;
   const Index nn = body.num_nodes();
   const NodeIncidence& incidence = body.incidence;
   h.tets = body.tets;
@@ -312,12 +323,12 @@ void VolumeProjection::prepare(const Body& body, const Points& at_positions, con
   prepare_anew(body, at_positions, fixed);
   prepared_.valid = sliding_ == nullptr;
   if (prepared_.valid) {
-    prepared_.positions = at_positions;
-    prepared_.masses = body.masses;
-    prepared_.fractions = body.solid_fractions;
-    prepared_.Fp = body.Fp;
-    prepared_.fixed = fixed;
-    prepared_.rest = rest_;
+    copy_in_parallel(at_positions, prepared_.positions);
+    copy_in_parallel(body.masses, prepared_.masses);
+    copy_in_parallel(body.solid_fractions, prepared_.fractions);
+    copy_in_parallel(body.Fp, prepared_.Fp);
+    copy_in_parallel(fixed, prepared_.fixed);
+    copy_in_parallel(rest_, prepared_.rest);
   }
 }
 
@@ -332,10 +343,10 @@ void VolumeProjection::prepare_constraints(const Body& body, const Points& at_po
   const Index ne = body.num_elements(), nn = body.num_nodes();
   gradients(body, at_positions);
   inverse_mass_.resize(nn);
-  for (Index n = 0; n < nn; ++n) {
+  for_each_index(nn, [&](Index n) {
     const bool is_fixed = at(n) < fixed.size() && fixed[at(n)];
     inverse_mass_[n] = !is_fixed && body.masses[n] > 0.0 ? 1.0 / body.masses[n] : 0.0;
-  }
+  });
   // An element whose nodes are all fixed cannot change its volume: it is
   // left out of the constraints (its error would make them inconsistent).
   // An inverted or crushed element (V_e below a tenth of its rest volume
@@ -447,11 +458,20 @@ int VolumeProjection::solve(const Body& body, const Eigen::VectorXd& rhs, double
     const double pAp = p_.dot(Ap_);
     if (!(pAp > 0.0)) break;
     const double alpha = rz / pAp;
-    lambda += alpha * p_;
-    r_ -= alpha * Ap_;
-    z_ = r_.cwiseQuotient(diagonal_);
+    // The updates entry by entry in parallel (each entry's operations as
+    // the vector expressions round them), the dot products as before.
+    for_each_index(
+        nn,
+        [&](Index n) {
+          lambda[n] += alpha * p_[n];
+          r_[n] -= alpha * Ap_[n];
+          z_[n] = r_[n] / diagonal_[n];
+        },
+        2048);
     const double rz_next = r_.dot(z_);
-    p_ = z_ + (rz_next / rz) * p_;
+    const double beta = rz_next / rz;
+    for_each_index(
+        nn, [&](Index n) { p_[n] = z_[n] + beta * p_[n]; }, 2048);
     rz = rz_next;
     ++iteration;
     residual = max_relative(r_, node_rest_, nullptr);
@@ -474,10 +494,16 @@ double VolumeProjection::surface_target_scale(const Body& body) {
   // the elements hold (its triangles are straight across element faces,
   // where the elements' map bends); it changes slowly with the shape.
   volumes(body, body.positions);
+  // Each element's terms in parallel, then summed in element order.
+  rest_term_.resize(ne);
+  for_each_index(ne, [&](Index e) {
+    volume_[e] = body.solid_fractions[e] * volume_[e];
+    rest_term_[e] = body.solid_fractions[e] * body.rest_volumes[e] * body.Fp[at(e)].determinant();
+  });
   CompensatedSum material, rest;
   for (Index e = 0; e < ne; ++e) {
-    material.add(body.solid_fractions[e] * volume_[e]);
-    rest.add(body.solid_fractions[e] * body.rest_volumes[e] * body.Fp[at(e)].determinant());
+    material.add(volume_[e]);
+    rest.add(rest_term_[e]);
   }
   // The surface itself is measured every kSurfaceEvery projections (and
   // after every reset(), so a resumed run measures where the first did).
@@ -512,7 +538,7 @@ VolumeProjectionStats VolumeProjection::project(Body& body, const Points& start,
     // velocity and carried pressure, so a drift never turns into speed
     // (Δx/Δt at a tiny Δt) or winds the pressure up.
     weighted_volumes(body, start);
-    for (Index e = 0; e < ne; ++e) volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0;
+    for_each_index(ne, [&](Index e) { volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0; });
     quarter_node_sums(body.incidence, volume_, error_);
     const double drift = max_relative(error_, node_rest_, &active_);
     if (drift > settings_.tolerance) {
@@ -533,7 +559,7 @@ VolumeProjectionStats VolumeProjection::project(Body& body, const Points& start,
   bool chord = true, restarted = false;
   for (int newton = 0;; ++newton) {
     weighted_volumes(body, body.positions);
-    for (Index e = 0; e < ne; ++e) volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0;
+    for_each_index(ne, [&](Index e) { volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0; });
     quarter_node_sums(body.incidence, volume_, error_);
     const double error = max_relative(error_, node_rest_, &active_);
     if (newton == 0) stats.error_before = error;
@@ -607,7 +633,7 @@ VolumeProjectionStats VolumeProjection::restore(Body& body, const std::vector<st
   };
   const auto measure = [&](const std::vector<std::uint8_t>* over) {
     weighted_volumes(body, body.positions);
-    for (Index e = 0; e < ne; ++e) volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0;
+    for_each_index(ne, [&](Index e) { volume_[e] = movable_[at(e)] ? volume_[e] - rest_[e] : 0.0; });
     quarter_node_sums(body.incidence, volume_, error_);
     return max_relative(error_, node_rest_, over);
   };

@@ -183,6 +183,7 @@ class VolumeProjection {
   } gradient_at_;
   Eigen::VectorXd element_lambda_;  ///< Λ_e = ¼ Σ_k λ_{n_k}
   Eigen::VectorXd volume_, rest_, element_sum_, inverse_mass_, node_rest_, diagonal_;
+  Eigen::VectorXd rest_term_;  ///< surface_target_scale's per-element rest volumes
   /// Per element W_e det Fp_e (then × φ_e); per node ¼ Σ_{e∋i} of each:
   /// the material's share of a node is node_material_ / node_whole_.
   Eigen::VectorXd whole_, node_whole_, node_material_;

@@ -114,9 +114,18 @@ void NewmarkIntegrator::solve_damped(const Body& body, double h, const Points& r
   // free entry of rhs: exact in binary (the same bits as unscaled), and the
   // squared norms stay finite for any representable mass, gravity or load
   // (a density of 1e200 overflowed ‖rhs‖², and the solve was skipped).
+  // The largest free entry: per run in parallel, then over the runs (a
+  // maximum is exact in any order).
+  const Index runs = (nn + kCgRun - 1) / kCgRun;
+  run_largest_.assign(at(runs), 0.0);
+  for_each_run(nn, kCgRun, [&](Index run, Index begin, Index end) {
+    double most = 0.0;
+    for (Index n = begin; n < end; ++n)
+      if (!constrained_[at(n)]) most = std::max(most, rhs.row(n).cwiseAbs().maxCoeff());
+    run_largest_[at(run)] = most;
+  });
   double largest = 0.0;
-  for (Index n = 0; n < nn; ++n)
-    if (!constrained_[at(n)]) largest = std::max(largest, rhs.row(n).cwiseAbs().maxCoeff());
+  for (const double most : run_largest_) largest = std::max(largest, most);
   if (!std::isfinite(largest)) {
     v.setConstant(std::numeric_limits<double>::quiet_NaN());  // diagnosed as a non-finite state
     return;
@@ -125,8 +134,12 @@ void NewmarkIntegrator::solve_damped(const Body& body, double h, const Points& r
   int exponent = 0;
   static_cast<void>(std::frexp(largest, &exponent));
   const double scale = std::ldexp(1.0, exponent);
-  const Points scaled_rhs = rhs / scale;
-  v /= scale;
+  // Scaled entry by entry in parallel (by a power of two: exact).
+  scaled_rhs_.resize(nn, 3);
+  for_each_run(nn, kCgRun, [&](Index, Index begin, Index end) {
+    scaled_rhs_.middleRows(begin, end - begin) = rhs.middleRows(begin, end - begin) / scale;
+    v.middleRows(begin, end - begin) /= scale;
+  });
   // The warm start: where a viscous body flows steadily its velocities
   // change little from one step to the next, and the same half step's
   // solution a step ago is near this one's (the armadillo grate, frames
@@ -135,10 +148,19 @@ void NewmarkIntegrator::solve_damped(const Body& body, double h, const Points& r
   // 0.62 and 0.89; the best combination of both solutions and v, 0.08 and
   // 0.14).
   Points& last = last_solutions_[static_cast<std::size_t>(half)];
-  const Points scaled_guess = last.rows() == nn ? Points(last / scale) : Points();
-  solve_scaled(body, h, scaled_rhs, last.rows() == nn ? &scaled_guess : nullptr, v, status);
-  v *= scale;
-  last = v;
+  const bool guessed = last.rows() == nn;
+  if (guessed) {
+    scaled_guess_.resize(nn, 3);
+    for_each_run(nn, kCgRun, [&](Index, Index begin, Index end) {
+      scaled_guess_.middleRows(begin, end - begin) = last.middleRows(begin, end - begin) / scale;
+    });
+  }
+  solve_scaled(body, h, scaled_rhs_, guessed ? &scaled_guess_ : nullptr, v, status);
+  last.resize(nn, 3);
+  for_each_run(nn, kCgRun, [&](Index, Index begin, Index end) {
+    v.middleRows(begin, end - begin) *= scale;
+    last.middleRows(begin, end - begin) = v.middleRows(begin, end - begin);
+  });
 }
 
 double NewmarkIntegrator::velocity_norm(const Body& body, const Points& r) {

@@ -161,9 +161,7 @@ double star_spread(const std::vector<Eigen::Matrix3d>& F0, const std::vector<Eig
 }
 
 bool CalmStars::update_mesh(const Body& body) {
-  if (tets_.rows() == body.tets.rows() && tets_ == body.tets && rest_.rows() == body.rest_positions.rows() &&
-      rest_ == body.rest_positions)
-    return false;
+  if (same_bits(tets_, body.tets) && same_bits(rest_, body.rest_positions)) return false;
   tets_ = body.tets;
   rest_ = body.rest_positions;
   const Index ne = static_cast<Index>(tets_.rows()), nn = static_cast<Index>(rest_.rows());

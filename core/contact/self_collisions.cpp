@@ -275,8 +275,8 @@ double SelfCollisions::friction(const Pair& pair, double own) const {
 }
 
 bool SelfCollisions::update_edges(const Triangles& triangles) {
-  if (triangles.rows() == triangles_.rows() && triangles == triangles_) return false;
-  triangles_ = triangles;
+  if (same_bits(triangles, triangles_)) return false;
+  copy_in_parallel(triangles, triangles_);
   const Index nt = static_cast<Index>(triangles.rows());
   // (a, b, triangle, corner) for every side of every triangle, sorted: runs
   // are the edges; the lowest triangle of a run owns the edge.
@@ -496,7 +496,7 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const P
   drift_.resize(at(nv));
   if (stars_.update_mesh(body)) list_valid_ = false;
   ListCheck ended = ListCheck::holds;  // no list to keep
-  if (list_valid_ && list_positions_.rows() == nv && list_parents_ == body.embedding.parent &&
+  if (list_valid_ && list_positions_.rows() == nv && same_bits(list_parents_, body.embedding.parent) &&
       cluster_.size() == at(nv)) {
     const ListCheck check = list_holds(xs0, ds);
     if (check == ListCheck::holds) return false;
