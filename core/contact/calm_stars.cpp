@@ -371,10 +371,10 @@ std::vector<Index> CalmStars::assign_groups(const Body& body, const Points& x0, 
       if (eligible_[at(n)] && star_has_surface_[at(n)]) kappa_[at(n)] = spread(body, n, kRatio, kGroupable);
   });
   const Triangles& tris = body.surface_triangles;
-  for (Index t = 0; t < nt; ++t) {
+  for_each_index(nt, [&](Index t) {  // each triangle its own group: in parallel
     bool inside = true;
     for (int k = 0; k < 3 && inside; ++k) inside = (body.embedding.bary.row(tris(t, k)).array() >= 0.0).all();
-    if (!inside) continue;
+    if (!inside) return;
     const Vec3 centroid =
         (surface_rest_.row(tris(t, 0)) + surface_rest_.row(tris(t, 1)) + surface_rest_.row(tris(t, 2))).transpose() / 3.0;
     double best = std::numeric_limits<double>::infinity();
@@ -386,7 +386,7 @@ std::vector<Index> CalmStars::assign_groups(const Body& body, const Points& x0, 
         group_[at(t)] = n;
       }
     }
-  }
+  });
   // Each group's near pairs, largest ratio first (then by pair).
   for (std::size_t i = 0; i < near_.size(); ++i) {
     const Index g = group_[at(near_[i][0])];
@@ -431,8 +431,9 @@ std::vector<std::array<Index, 2>> CalmStars::newly_unsafe(const Body& body, cons
   const Index ne = body.num_elements();
   std::vector<std::uint8_t> elements(at(ne), moved ? 0 : 1);
   if (moved)
-    for (Index e = 0; e < ne; ++e)
+    for_each_index(ne, [&](Index e) {
       for (int k = 0; k < 4; ++k) elements[at(e)] |= (*moved)[at(body.tets(e, k))];
+    });
   gradients(body, x0, d, &elements);
   std::vector<std::uint8_t> touched(grouped_.size(), 0);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grouped_.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {

@@ -6,10 +6,12 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <map>
 #include <tuple>
+#include <utility>
 
 #include "core/contact/box_pairs.h"
 #include "core/contact/ccd.h"
@@ -330,13 +332,19 @@ SelfCollisions::ListCheck SelfCollisions::list_holds(const Points& xs0, const Po
       mean[1].row(c) = end_sum / double(cluster_size_[at(c)]);
     }
   });
-  for (Index a = 0; a < nc; ++a)
-    for (Index b = a + 1; b < nc; ++b) {
-      const double allowed = allowance_[at(a * nc + b)];
-      if (!((mean[0].row(a) - mean[0].row(b)).cwiseAbs().maxCoeff() <= allowed &&
-            (mean[1].row(a) - mean[1].row(b)).cwiseAbs().maxCoeff() <= allowed))
-        return ListCheck::clusters_parted;
-    }
+  const bool parted = any_index(
+      nc,
+      [&](Index a) {  // rows of cluster pairs in parallel: a yes or no
+        for (Index b = a + 1; b < nc; ++b) {
+          const double allowed = allowance_[at(a * nc + b)];
+          if (!((mean[0].row(a) - mean[0].row(b)).cwiseAbs().maxCoeff() <= allowed &&
+                (mean[1].row(a) - mean[1].row(b)).cwiseAbs().maxCoeff() <= allowed))
+            return true;
+        }
+        return false;
+      },
+      16);
+  if (parted) return ListCheck::clusters_parted;
   // Every vertex's drift (extend_list reads those past their margins).
   std::atomic<bool> within{true};
   tbb::parallel_for(tbb::blocked_range<Index>(0, nv, 4 * kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
@@ -1016,23 +1024,30 @@ bool SelfCollisions::select_pairs(const std::vector<Index>& changed) {
     std::vector<std::size_t> next(vertex_pair_offsets_.begin(), vertex_pair_offsets_.end() - 1);
     for (std::size_t i = 0; i < indexed_; ++i)
       for (const Index v : candidates_[i].vertices) vertex_pairs_[next[at(v)]++] = static_cast<std::uint32_t>(i);
-    pair_marked_.assign(indexed_, 0);
+    pair_marked_.assign((indexed_ + 63) / 64, 0);
     index_valid_ = true;
   }
   std::size_t reached = 0;
   for (const Index v : changed) reached += vertex_pair_offsets_[at(v) + 1] - vertex_pair_offsets_[at(v)];
   if (reached > indexed_ / 2) return false;  // a pass over the list is cheaper
+  // The pairs reached, a bit each, then read off in ascending order (the
+  // bits of the words between the lowest and the highest set, cleared as
+  // read): the order of a sort, at a pass over a bit per pair (the
+  // armadillo grate's rounds reach thousands of pairs, and sorting them
+  // was a fifth of the stage's serial time).
   selected_.clear();
+  std::size_t low = pair_marked_.size(), high = 0;
   for (const Index v : changed)
     for (std::size_t j = vertex_pair_offsets_[at(v)]; j != vertex_pair_offsets_[at(v) + 1]; ++j) {
       const std::uint32_t i = vertex_pairs_[j];
-      if (!pair_marked_[i]) {
-        pair_marked_[i] = 1;
-        selected_.push_back(i);
-      }
+      const std::size_t word = i / 64;
+      pair_marked_[word] |= std::uint64_t{1} << (i % 64);
+      low = std::min(low, word);
+      high = std::max(high, word);
     }
-  std::sort(selected_.begin(), selected_.end());
-  for (const std::size_t i : selected_) pair_marked_[i] = 0;
+  for (std::size_t word = low; word <= high && word < pair_marked_.size(); ++word)
+    for (std::uint64_t bits = std::exchange(pair_marked_[word], 0); bits != 0; bits &= bits - 1)
+      selected_.push_back(64 * word + static_cast<std::size_t>(std::countr_zero(bits)));
   for (std::size_t i = indexed_; i < candidates_.size(); ++i) selected_.push_back(i);  // checked against `only` as read
   return true;
 }

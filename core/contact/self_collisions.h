@@ -240,7 +240,7 @@ class SelfCollisions {
   std::vector<std::uint32_t> vertex_pairs_;
   std::size_t indexed_ = 0;
   bool index_valid_ = false;
-  std::vector<std::uint8_t> pair_marked_;  // per indexed pair: in selected_ (cleared after each selection)
+  std::vector<std::uint64_t> pair_marked_;  // a bit per indexed pair: in selected_ (cleared after each selection)
   std::vector<std::size_t> selected_;      // the pairs a round's detection measures
   // What one detection found in each fixed run of kDetectChunk candidates
   // (collected in parallel, read in list order).
