@@ -210,9 +210,21 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
   if (only) {
     // A later pass of the position stage: the few elements flagged, each
     // with its own vertices (the index's lists), in element order.
+    // Flagged elements with vertices, ascending: found per run in parallel,
+    // the runs read in order.
+    constexpr Index kRun = 4096;
+    flagged_runs_.resize(at((ne + kRun - 1) / kRun));
+    for_each_index(
+        static_cast<Index>(flagged_runs_.size()),
+        [&](Index run) {
+          std::vector<Index>& found = flagged_runs_[at(run)];
+          found.clear();
+          for (Index e = run * kRun; e < std::min(ne, (run + 1) * kRun); ++e)
+            if ((*only)[at(e)] && offsets_[at(e)] != offsets_[at(e) + 1]) found.push_back(e);
+        },
+        1);
     flagged_.clear();
-    for (Index e = 0; e < ne; ++e)
-      if ((*only)[at(e)] && offsets_[at(e)] != offsets_[at(e) + 1]) flagged_.push_back(e);
+    for (const auto& found : flagged_runs_) flagged_.insert(flagged_.end(), found.begin(), found.end());
     flagged_hits_.resize(flagged_.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, flagged_.size(), 64),
                       [&](const tbb::blocked_range<std::size_t>& r) {
@@ -429,12 +441,13 @@ CollisionStats SurfaceCollisions::resolve_positions(Body& body, const std::vecto
     if (contacts)
       for (std::size_t i = 0; i < hits.size(); ++i)
         if (normal[i] != Eigen::Vector3d::Zero()) contacts->push_back({hits[i].element, normal[i]});
-    again.assign(at(body.num_elements()), 0);
+    // The elements hit, and those with a node that moved (in parallel).
+    again.resize(at(body.num_elements()));
+    for_each_index(body.num_elements(), [&](Index e) {
+      again[at(e)] = moved[at(body.tets(e, 0))] | moved[at(body.tets(e, 1))] | moved[at(body.tets(e, 2))] |
+                     moved[at(body.tets(e, 3))];
+    });
     for (const Hit& h : hits) again[at(h.element)] = 1;
-    for (Index n = 0; n < body.num_nodes(); ++n)
-      if (moved[at(n)])
-        for (Index c = body.incidence.offsets[at(n)]; c < body.incidence.offsets[at(n) + 1]; ++c)
-          again[at(body.incidence.corners[at(c)] / 4)] = 1;
   }
   return stats;
 }

@@ -91,6 +91,7 @@ class SurfaceCollisions {
   std::vector<Index> flagged_;              // a restricted detection's elements that have vertices
   std::vector<Hit> flagged_hits_;           // and the deepest hit of each (element −1: none)
   std::vector<Hit> per_element_;            // a full detection's deepest hit per element (empty between calls)
+  std::vector<std::vector<Index>> flagged_runs_;  // detect's flagged elements, per run of elements
   std::vector<std::uint8_t> hit_;           // per element: hit in this detection (zero between calls)
 };
 

@@ -1030,24 +1030,27 @@ bool SelfCollisions::select_pairs(const std::vector<Index>& changed) {
   std::size_t reached = 0;
   for (const Index v : changed) reached += vertex_pair_offsets_[at(v) + 1] - vertex_pair_offsets_[at(v)];
   if (reached > indexed_ / 2) return false;  // a pass over the list is cheaper
-  // The pairs reached, a bit each, then read off in ascending order (the
-  // bits of the words between the lowest and the highest set, cleared as
-  // read): the order of a sort, at a pass over a bit per pair (the
-  // armadillo grate's rounds reach thousands of pairs, and sorting them
-  // was a fifth of the stage's serial time).
+  // The pairs reached, a bit each (set in parallel: a set is the same
+  // whatever the order), then read off in ascending order, cleared as read:
+  // the order of a sort, at a pass over a bit per pair (the armadillo
+  // grate's rounds reach thousands of pairs, and sorting them was a fifth
+  // of the stage's serial time).
   selected_.clear();
-  std::size_t low = pair_marked_.size(), high = 0;
-  for (const Index v : changed)
-    for (std::size_t j = vertex_pair_offsets_[at(v)]; j != vertex_pair_offsets_[at(v) + 1]; ++j) {
-      const std::uint32_t i = vertex_pairs_[j];
-      const std::size_t word = i / 64;
-      pair_marked_[word] |= std::uint64_t{1} << (i % 64);
-      low = std::min(low, word);
-      high = std::max(high, word);
-    }
-  for (std::size_t word = low; word <= high && word < pair_marked_.size(); ++word)
-    for (std::uint64_t bits = std::exchange(pair_marked_[word], 0); bits != 0; bits &= bits - 1)
-      selected_.push_back(64 * word + static_cast<std::size_t>(std::countr_zero(bits)));
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, changed.size(), 64),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t c = r.begin(); c != r.end(); ++c) {
+                        const Index v = changed[c];
+                        for (std::size_t j = vertex_pair_offsets_[at(v)]; j != vertex_pair_offsets_[at(v) + 1]; ++j) {
+                          const std::uint32_t i = vertex_pairs_[j];
+                          std::atomic_ref<std::uint64_t>(pair_marked_[i / 64])
+                              .fetch_or(std::uint64_t{1} << (i % 64), std::memory_order_relaxed);
+                        }
+                      }
+                    });
+  for (std::size_t word = 0; word < pair_marked_.size(); ++word)
+    if (pair_marked_[word] != 0)
+      for (std::uint64_t bits = std::exchange(pair_marked_[word], 0); bits != 0; bits &= bits - 1)
+        selected_.push_back(64 * word + static_cast<std::size_t>(std::countr_zero(bits)));
   for (std::size_t i = indexed_; i < candidates_.size(); ++i) selected_.push_back(i);  // checked against `only` as read
   return true;
 }
