@@ -225,7 +225,7 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
         1);
     flagged_.clear();
     for (const auto& found : flagged_runs_) flagged_.insert(flagged_.end(), found.begin(), found.end());
-    flagged_hits_.resize(flagged_.size());
+    if (flagged_hits_.size() < flagged_.size()) flagged_hits_.resize(flagged_.size());  // never shrunk: not filled anew
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, flagged_.size(), 64),
                       [&](const tbb::blocked_range<std::size_t>& r) {
                         std::vector<std::uint64_t> mask(words);
@@ -245,8 +245,8 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
                           }
                         }
                       });
-    for (const Hit& h : flagged_hits_)
-      if (h.element >= 0) hits.push_back(h);
+    for (std::size_t i = 0; i < flagged_.size(); ++i)
+      if (flagged_hits_[i].element >= 0) hits.push_back(flagged_hits_[i]);
     return hits;
   }
 
