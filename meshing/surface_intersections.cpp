@@ -296,6 +296,7 @@ FacingSheets facing_sheets(const TriangleMesh& mesh, double gap) {
     std::int64_t key;
     Vec3 centre, unit_normal;
     Index triangle;
+    std::uint8_t direction;  // the normal's largest coordinate, by axis and sign (0–5; 6: no normal)
   };
   std::vector<Entry> entries(at(nt));
   std::vector<double> area(at(nt));
@@ -307,6 +308,9 @@ FacingSheets facing_sheets(const TriangleMesh& mesh, double gap) {
     area[at(t)] = 0.5 * n.norm();
     e.unit_normal = area[at(t)] > 0.0 ? Vec3(n / (2.0 * area[at(t)])) : Vec3::Zero();  // no area: faces nothing
     e.triangle = t;
+    Eigen::Index axis = 0;
+    const double largest = e.unit_normal.cwiseAbs().maxCoeff(&axis);
+    e.direction = largest > 0.0 ? static_cast<std::uint8_t>(2 * axis + (e.unit_normal[axis] < 0.0 ? 1 : 0)) : 6;
   });
   Vec3 low = Vec3::Constant(std::numeric_limits<double>::infinity()), high = -low;
   for (const Entry& e : entries) low = low.cwiseMin(e.centre), high = high.cwiseMax(e.centre);
@@ -320,12 +324,29 @@ FacingSheets facing_sheets(const TriangleMesh& mesh, double gap) {
   auto cell_of = [&](const Vec3& c) -> Eigen::Vector3i { return ((c - low) / side).array().floor().cast<int>(); };
   auto key_of = [&](const Eigen::Vector3i& c) { return (std::int64_t{c.x()} * kSide + c.y()) * kSide + c.z(); };
   for_each_index(nt, [&](Index t) { entries[at(t)].key = key_of(cell_of(entries[at(t)].centre)); });
-  // By key, then triangle (stable, from triangle order); keys are not negative.
-  radix_sort(entries, [](const Entry& e) { return static_cast<std::uint64_t>(e.key); });
+  // By key, then direction, then triangle (stable, from triangle order);
+  // keys are not negative and below 2⁶⁰.
+  radix_sort(entries, [](const Entry& e) { return (static_cast<std::uint64_t>(e.key) << 3) | e.direction; });
   std::vector<std::size_t> cells;  // where each cell's run of entries starts
   for (std::size_t i = 0; i < entries.size(); ++i)
     if (i == 0 || entries[i].key != entries[i - 1].key) cells.push_back(i);
   cells.push_back(entries.size());
+  // Where each direction's entries start in each cell (8 a cell, the last
+  // the cell's end). Two normals whose largest coordinate is the same axis
+  // with the same sign lie within arccos(1/√3) of it each, so at most
+  // 109.5° apart (cosine ≥ −1/3): they never face, and a cell's entries
+  // skip the block of their own direction in the other.
+  std::vector<std::size_t> direction_start(8 * (cells.size() - 1));
+  for_each_index(
+      static_cast<Index>(cells.size() - 1),
+      [&](Index c) {
+        std::size_t i = cells[at(c)];
+        for (std::uint8_t d = 0; d < 8; ++d) {
+          while (i < cells[at(c) + 1] && entries[i].direction < d) ++i;
+          direction_start[8 * at(c) + d] = i;
+        }
+      },
+      64);
   const double gap2 = gap * gap;
   // s faces t: normals more than 120° apart, each centroid on the outer
   // side of the other's plane (air between them), closer than the gap, and
@@ -353,13 +374,24 @@ FacingSheets facing_sheets(const TriangleMesh& mesh, double gap) {
                                                 [&](std::size_t at_entry, std::int64_t k) { return entries[at_entry].key < k; });
             if (first == cells.end() - 1 || entries[*first].key != key) continue;
             const std::size_t begin = *first, end = *(first + 1);
+            const std::size_t other = static_cast<std::size_t>(first - cells.begin());
             const bool same = key == entries[cells[c]].key;
-            for (std::size_t i = cells[c]; i != cells[c + 1]; ++i)
-              for (std::size_t j = same ? i + 1 : begin; j != end; ++j)
+            for (std::size_t i = cells[c]; i != cells[c + 1]; ++i) {
+              const std::uint8_t d = entries[i].direction;
+              if (d == 6) continue;  // no normal: faces nothing
+              // [from, end) less the block of i's own direction.
+              const std::size_t own_begin = direction_start[8 * other + d],
+                                own_end = direction_start[8 * other + d + 1];
+              const std::size_t from = same ? i + 1 : begin;
+              auto test = [&](std::size_t j) {
                 if (face(entries[i], entries[j])) {
                   faces[at(entries[i].triangle)].store(1, std::memory_order_relaxed);
                   faces[at(entries[j].triangle)].store(1, std::memory_order_relaxed);
                 }
+              };
+              for (std::size_t j = from; j < std::min(end, own_begin); ++j) test(j);
+              for (std::size_t j = std::max(from, own_end); j < end; ++j) test(j);
+            }
           }
     }
   });

@@ -3,9 +3,12 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <cstdint>
 #include <random>
+#include <vector>
 
 #include "core/primitives.h"
+#include "core/surface_check.h"
 #include "meshing/surface_intersections.h"
 #include "tests/common/test_common.h"
 
@@ -261,6 +264,52 @@ TEST(FacingSheets, SameBitsOnOneAndTwoThreads) {
   ASSERT_GT(one.triangles, 0);
   EXPECT_EQ(one.triangles, two.triangles);
   EXPECT_EQ(one.area, two.area);
+}
+
+// Every pair against every other, by the definition (normals more than
+// 120° apart, each centroid on the outer side of the other's plane, closer
+// than the gap, no shared vertex): the grid and the skipping of normals of
+// one direction must find exactly these, on crumpled sheets facing at every
+// orientation (a sphere inside a larger one, both shaken radially).
+TEST(FacingSheets, FindsWhatEveryPairAgainstEveryOtherFinds) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> shake(-0.04, 0.04);
+  TriangleMesh inner = make_sphere(1.0, 14), outer = make_sphere(1.12, 14);
+  for (TriangleMesh* m : {&inner, &outer})
+    for (Index v = 0; v < m->num_vertices(); ++v) m->vertices.row(v) *= 1.0 + shake(rng);
+  flip_orientation(outer);  // a shell: the outer sheet's normals point in, across the gap
+  const TriangleMesh both = test::joined(inner, outer);
+  const double gap = 0.2;
+  const Index nt = both.num_triangles();
+  std::vector<V> centre(static_cast<std::size_t>(nt)), normal(static_cast<std::size_t>(nt));
+  std::vector<double> area(static_cast<std::size_t>(nt));
+  for (Index t = 0; t < nt; ++t) {
+    const V a = both.vertices.row(both.triangles(t, 0)), b = both.vertices.row(both.triangles(t, 1)),
+            c = both.vertices.row(both.triangles(t, 2));
+    const V n = (b - a).cross(c - a);
+    centre[static_cast<std::size_t>(t)] = (a + b + c) / 3.0;
+    area[static_cast<std::size_t>(t)] = 0.5 * n.norm();
+    normal[static_cast<std::size_t>(t)] = n / n.norm();
+  }
+  std::vector<std::uint8_t> faces(static_cast<std::size_t>(nt), 0);
+  for (Index s = 0; s < nt; ++s)
+    for (Index t = s + 1; t < nt; ++t) {
+      const auto i = static_cast<std::size_t>(s), j = static_cast<std::size_t>(t);
+      const V d = centre[j] - centre[i];
+      bool shared = false;
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) shared = shared || both.triangles(s, a) == both.triangles(t, b);
+      if (normal[i].dot(normal[j]) < -0.5 && d.dot(normal[i]) > 0.0 && d.dot(normal[j]) < 0.0 &&
+          d.squaredNorm() < gap * gap && !shared)
+        faces[i] = faces[j] = 1;
+    }
+  FacingSheets expected;
+  for (Index t = 0; t < nt; ++t)
+    if (faces[static_cast<std::size_t>(t)]) expected.area += area[static_cast<std::size_t>(t)], ++expected.triangles;
+  const FacingSheets found = facing_sheets(both, gap);
+  ASSERT_GT(expected.triangles, nt / 2);  // most of both sheets face
+  EXPECT_EQ(found.triangles, expected.triangles);
+  EXPECT_EQ(found.area, expected.area);
 }
 
 }  // namespace
