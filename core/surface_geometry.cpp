@@ -1,9 +1,6 @@
 #include "core/surface_geometry.h"
 
 #include <array>
-#include <vector>
-
-#include "core/parallel.h"
 
 namespace goo {
 
@@ -26,23 +23,15 @@ SurfaceIntegrals surface_integrals(const TriangleMesh& mesh) {
   CompensatedSum area;
   CompensatedSum six_volume;
   std::array<CompensatedSum, 3> twentyfour_moment;  // Σ 6V_t · 4(c_t − r)
-  // Each triangle's terms in parallel, then summed in triangle order: the
-  // same sums as one pass.
-  const Index nt = mesh.num_triangles();
-  std::vector<std::array<double, 5>> term_of(static_cast<std::size_t>(nt));
-  for_each_index(nt, [&](Index t) {
+  for (Index t = 0; t < mesh.num_triangles(); ++t) {
     const Eigen::Vector3d a = mesh.vertices.row(mesh.triangles(t, 0)).transpose() - r;
     const Eigen::Vector3d b = mesh.vertices.row(mesh.triangles(t, 1)).transpose() - r;
     const Eigen::Vector3d c = mesh.vertices.row(mesh.triangles(t, 2)).transpose() - r;
+    area.add(0.5 * (b - a).cross(c - a).norm());
     const double det = a.dot(b.cross(c));
+    six_volume.add(det);
     const Eigen::Vector3d m = det * (a + b + c);
-    term_of[static_cast<std::size_t>(t)] = {0.5 * (b - a).cross(c - a).norm(), det, m[0], m[1], m[2]};
-  });
-  for (const auto& term : term_of) {
-    area.add(term[0]);
-    six_volume.add(term[1]);
-    for (int k = 0; k < 3; ++k)
-      twentyfour_moment[static_cast<std::size_t>(k)].add(term[static_cast<std::size_t>(k) + 2]);
+    for (int k = 0; k < 3; ++k) twentyfour_moment[static_cast<std::size_t>(k)].add(m[k]);
   }
   SurfaceIntegrals out;
   out.area = area.value();
