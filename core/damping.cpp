@@ -149,22 +149,11 @@ void Damping::diagonal_blocks(const Body& body, std::vector<Eigen::Matrix3d>& ou
 }
 
 double max_strain_rate(const Body& body, const Points& v) {
-  // A maximum is exact in any order: per run in parallel, then over the runs.
-  constexpr Index kRun = 2048;
-  const Index ne = body.num_elements(), runs = (ne + kRun - 1) / kRun;
-  std::vector<double> largest(at(runs), 0.0);
-  for_each_index(
-      runs,
-      [&](Index run) {
-        double rate = 0.0;
-        for (Index e = run * kRun; e < std::min(ne, (run + 1) * kRun); ++e)
-          rate = std::max(rate, deformation_gradient(body, v, e).norm());
-        largest[at(run)] = rate;
-      },
-      1);
-  double rate = 0.0;
-  for (const double r : largest) rate = std::max(rate, r);
-  return rate;
+  return max_over_runs(body.num_elements(), 2048, [&](Index begin, Index end) {
+    double rate = 0.0;
+    for (Index e = begin; e < end; ++e) rate = std::max(rate, deformation_gradient(body, v, e).norm());
+    return rate;
+  });
 }
 
 }  // namespace goo

@@ -70,6 +70,23 @@ bool any_index(Index count, Pred&& pred, std::size_t grain = kParallelGrain) {
   return found.load();
 }
 
+/// The largest of largest_in(begin, end) over the fixed runs [run·size,
+/// min(count, (run + 1)·size)) of [0, count), the runs in parallel, and 0
+/// if that is larger (a maximum is exact in any order: the same on any
+/// thread count). largest_in returns at least 0 and no NaN.
+template <class F>
+double max_over_runs(Index count, Index size, F&& largest_in) {
+  const Index runs = (count + size - 1) / size;
+  std::vector<double> largest(at(runs), 0.0);
+  tbb::parallel_for(tbb::blocked_range<Index>(0, runs, 1), [&](const tbb::blocked_range<Index>& r) {
+    for (Index run = r.begin(); run != r.end(); ++run)
+      largest[at(run)] = largest_in(run * size, std::min(count, (run + 1) * size));
+  });
+  double out = 0.0;
+  for (const double x : largest) out = std::max(out, x);
+  return out;
+}
+
 /// Whether the n entries at a and at b (numbers, or fixed blocks of them:
 /// no padding) have the same bits, compared in parallel runs: the checks of
 /// "the same mesh, the same positions" that keep a preparation (equal bits

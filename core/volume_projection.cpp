@@ -51,24 +51,14 @@ double volume_gradient(const Eigen::Vector3d& x0, const Eigen::Vector3d& x1, con
 /// The largest |error_i| / rest_i over the nodes with rest_i > 0 (and
 /// flagged in `active`), in parallel runs: a maximum is exact in any order.
 double max_relative(const Eigen::VectorXd& error, const Eigen::VectorXd& rest, const std::vector<std::uint8_t>* active) {
-  constexpr Index kRun = 2048;
-  const auto count = static_cast<Index>(error.size());
-  const Index runs = (count + kRun - 1) / kRun;
-  std::vector<double> worst(at(runs), 0.0);
-  for_each_index(
-      runs,
-      [&](Index run) {
-        double w = 0.0;
-        for (Index n = run * kRun; n < std::min(count, (run + 1) * kRun); ++n) {
-          if (active && !(*active)[at(n)]) continue;
-          if (rest[n] > 0.0) w = std::max(w, std::abs(error[n]) / rest[n]);
-        }
-        worst[at(run)] = w;
-      },
-      1);
-  double out = 0.0;
-  for (const double w : worst) out = std::max(out, w);
-  return out;
+  return max_over_runs(static_cast<Index>(error.size()), 2048, [&](Index begin, Index end) {
+    double worst = 0.0;
+    for (Index n = begin; n < end; ++n) {
+      if (active && !(*active)[at(n)]) continue;
+      if (rest[n] > 0.0) worst = std::max(worst, std::abs(error[n]) / rest[n]);
+    }
+    return worst;
+  });
 }
 
 

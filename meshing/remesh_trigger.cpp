@@ -3,7 +3,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include <algorithm>
 #include <atomic>
 #include <limits>
 
@@ -69,16 +68,10 @@ bool remesh_due(const Body& body, const Points& x, const Eigen::Matrix<double, E
                       }
                     });
   if (due.load()) return true;
-  // A surface vertex drifted too far outside its element, in parallel runs.
-  constexpr Index kRun = 4096;
-  const auto nv = static_cast<Index>(bary.rows());
-  return any_index((nv + kRun - 1) / kRun,
-                   [&](Index run) {
-                     for (Index v = run * kRun; v < std::min(nv, (run + 1) * kRun); ++v)
-                       if (bary.row(v).minCoeff() < thresholds.min_barycentric) return true;
-                     return false;
-                   },
-                   1);
+  // A surface vertex drifted too far outside its element (in parallel runs).
+  return any_index(
+      static_cast<Index>(bary.rows()), [&](Index v) { return bary.row(v).minCoeff() < thresholds.min_barycentric; },
+      4096);
 }
 
 }  // namespace goo

@@ -114,18 +114,13 @@ void NewmarkIntegrator::solve_damped(const Body& body, double h, const Points& r
   // free entry of rhs: exact in binary (the same bits as unscaled), and the
   // squared norms stay finite for any representable mass, gravity or load
   // (a density of 1e200 overflowed ‖rhs‖², and the solve was skipped).
-  // The largest free entry: per run in parallel, then over the runs (a
-  // maximum is exact in any order).
-  const Index runs = (nn + kCgRun - 1) / kCgRun;
-  run_largest_.assign(at(runs), 0.0);
-  for_each_run(nn, kCgRun, [&](Index run, Index begin, Index end) {
+  // The largest free entry, per run in parallel.
+  const double largest = max_over_runs(nn, kCgRun, [&](Index begin, Index end) {
     double most = 0.0;
     for (Index n = begin; n < end; ++n)
       if (!constrained_[at(n)]) most = std::max(most, rhs.row(n).cwiseAbs().maxCoeff());
-    run_largest_[at(run)] = most;
+    return most;
   });
-  double largest = 0.0;
-  for (const double most : run_largest_) largest = std::max(largest, most);
   if (!std::isfinite(largest)) {
     v.setConstant(std::numeric_limits<double>::quiet_NaN());  // diagnosed as a non-finite state
     return;

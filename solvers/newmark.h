@@ -90,7 +90,6 @@ class NewmarkIntegrator final : public Integrator {
   // CG work arrays, kept across steps.
   Points r_, z_, p_, Ap_, trial_, r_trial_;
   Points scaled_rhs_, scaled_guess_;    // solve_damped's right-hand side and warm start, scaled
-  std::vector<double> run_largest_;     // per run, its largest free right-hand-side entry
   static constexpr Index kCgRun = 256;  // nodes a run of the CG's passes
   std::vector<double> run_sums_;        // per run, its share of a pass's sums
   /// Each half step's last damping solution, m/s (the next step's warm start for that half).

@@ -93,5 +93,23 @@ TEST(AnyIndex, FindsTheOneIndexAndTestsEveryIndexWhenNone) {
   }
 }
 
+// A maximum over fixed runs, in parallel: the serial maximum exactly, for
+// counts shorter and longer than a run and on 1, 2 and 4 threads; 0 with
+// nothing to take it over.
+TEST(MaxOverRuns, IsTheSerialMaximumOnAnyThreadCount) {
+  std::vector<double> x(10007);
+  for (std::size_t i = 0; i < x.size(); ++i) x[i] = std::abs(std::sin(0.37 * static_cast<double>(i)));
+  for (const int threads : {1, 2, 4}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+    for (const Index count : {Index{1}, Index{100}, Index{4096}, Index{10007}}) {
+      const double serial = *std::max_element(x.begin(), x.begin() + count);
+      const double runs = max_over_runs(
+          count, 256, [&](Index begin, Index end) { return *std::max_element(x.begin() + begin, x.begin() + end); });
+      EXPECT_EQ(runs, serial) << count << " on " << threads;
+    }
+    EXPECT_EQ(max_over_runs(0, 256, [](Index, Index) { return 1.0; }), 0.0);
+  }
+}
+
 }  // namespace
 }  // namespace goo
