@@ -116,29 +116,28 @@ void Damping::diagonal_blocks(const Body& body, std::vector<Eigen::Matrix3d>& ou
   const Index ne = body.num_elements();
   check_frozen(body);
   element_blocks_.resize(at(ne));
-  const std::vector<Eigen::Matrix3d>& Fe = *Fe_;
-  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
-    for (Index e = range.begin(); e != range.end(); ++e) {
-      const Eigen::Matrix3d& G = Fe[at(e)];
-      const DampingBlock& frozen = blocks_[at(e / kDampingLanes)];
-      const auto lane = static_cast<std::size_t>(e % kDampingLanes);
-      const double scale = 0.5 * frozen.scale[lane];  // β W det Fp (halving a power of two: exact)
-      Eigen::Matrix3d A;
-      for (std::size_t k = 0; k < 9; ++k) A.data()[k] = frozen.A[k][lane];
-      // Ḟe = Σ_k v_k w_kᵀ with w_k = Fp⁻ᵀ g_k, the columns of Aᵀ (g_k node
-      // k's shape-function gradient, rows of Dm⁻¹, g_0 = −Σ): apply's force
-      // on node k is −2 W det(Fp) β Fe sym(Feᵀ Ḟe) w_k, whose derivative by
-      // v_k is the block below, negated.
-      const Eigen::Matrix3d W = A.transpose();  // columns w_1..w_3
-      const Eigen::Matrix3d GGt = G * G.transpose();
-      auto& blocks = element_blocks_[at(e)];
-      for (int k = 0; k < 4; ++k) {
-        const Eigen::Vector3d w = k == 0 ? Eigen::Vector3d(-W.rowwise().sum()) : Eigen::Vector3d(W.col(k - 1));
-        const Eigen::Vector3d Gw = G * w;
-        blocks[static_cast<std::size_t>(k)] = scale * (w.squaredNorm() * GGt + Gw * Gw.transpose());
-      }
-    }
-  });
+  // Ḟe = Σ_k v_k w_kᵀ with w_k = Fp⁻ᵀ g_k, the columns of Aᵀ (g_k node k's
+  // shape-function gradient, rows of Dm⁻¹, g_0 = −Σ): apply's force on node
+  // k is −2 W det(Fp) β Fe sym(Feᵀ Ḟe) w_k, whose derivative by v_k is
+  // corner k's block, negated: β W det(Fp) (|w|² Fe Feᵀ + (Fe w)(Fe w)ᵀ).
+  // Eight elements at a time from the frozen blocks, in the processor's
+  // vector lanes (core/damping_batch.h; the same bits at every width).
+  const SimdLevel level = active_simd_level();
+  const auto blocks = static_cast<Index>(blocks_.size());
+  tbb::parallel_for(tbb::blocked_range<Index>(0, blocks, kParallelGrain / kDampingLanes),
+                    [&](const tbb::blocked_range<Index>& range) {
+                      DampingDiagonal diagonal;
+                      for (Index b = range.begin(); b != range.end(); ++b) {
+                        damping_diagonal(blocks_[at(b)], diagonal, level);
+                        const Index first = b * kDampingLanes;
+                        const int count = static_cast<int>(std::min<Index>(kDampingLanes, ne - first));
+                        for (int lane = 0; lane < count; ++lane) {
+                          auto& corners = element_blocks_[at(first + lane)];
+                          for (std::size_t k = 0; k < 4; ++k)
+                            for (int i = 0; i < 9; ++i) corners[k].data()[i] = diagonal.d[k][i][lane];
+                        }
+                      }
+                    });
   out.resize(body.incidence.offsets.size() - 1);
   sum_over_corners(
       body.incidence, Eigen::Matrix3d::Zero().eval(),

@@ -27,4 +27,15 @@ struct alignas(64) DampingLanes {
 /// supported).
 void damping_block(const DampingBlock& block, DampingLanes& lanes, SimdLevel level);
 
+/// A block's corner blocks of C (Damping::diagonal_blocks): d[k][i + 3 j][lane]
+/// is row i, column j of corner k's 3×3 block of that lane's element.
+struct alignas(64) DampingDiagonal {
+  double d[4][9][kDampingLanes];
+};
+
+/// The corner blocks of every lane of the block at `level` (which must be
+/// supported): the bits of the Eigen formula Damping::diagonal_blocks ran
+/// element by element before.
+void damping_diagonal(const DampingBlock& block, DampingDiagonal& out, SimdLevel level);
+
 }  // namespace goo

@@ -31,5 +31,27 @@ inline void damping_lanes(const Mat3<typename Ops::R>& G, const Mat3<typename Op
   corner_forces(product_transposed(product(scaled(minus_scale, G), S), A), f);
 }
 
+/// The corner blocks of one group of lanes (Damping::diagonal_blocks): with
+/// w_k = Fp⁻ᵀ ∇N_k, the columns of Aᵀ (w_0 = −Σ), corner k's block is
+/// βW det Fp (|w_k|² Fe Feᵀ + (Fe w_k)(Fe w_k)ᵀ), in Eigen's order of that
+/// formula (Fe Feᵀ into a local matrix, |w|² as a dot product, the rows of
+/// Aᵀ summed as w₁ + (w₂ + w₃)).
+template <class Ops>
+inline void damping_diagonal_lanes(const Mat3<typename Ops::R>& G, const Mat3<typename Ops::R>& A,
+                                   const typename Ops::R& scale, typename Ops::R out[4][9]) {
+  using R = typename Ops::R;
+  const R half_scale = 0.5 * scale;  // βW det Fp (halving: exact)
+  const Mat3<R> GGt = product_transposed(G, G);
+  for (int k = 0; k < 4; ++k) {
+    R w[3];
+    for (int i = 0; i < 3; ++i) w[i] = k == 0 ? -(A(0, i) + (A(1, i) + A(2, i))) : A(k - 1, i);
+    R Gw[3];
+    for (int i = 0; i < 3; ++i) Gw[i] = eigen_row_sum(i, G(i, 0), G(i, 1), G(i, 2), w[0], w[1], w[2]);
+    const R norm2 = dot3(w[0], w[1], w[2], w[0], w[1], w[2]);
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i) out[k][i + 3 * j] = half_scale * (norm2 * GGt(i, j) + Gw[i] * Gw[j]);
+  }
+}
+
 }  // namespace
 }  // namespace goo::lanes

@@ -161,6 +161,23 @@ inline void damping_block_vector(const DampingBlock& block, DampingLanes& lanes)
   }
 }
 
+/// The damping block's corner blocks kWidth lanes at a time.
+inline void damping_diagonal_vector(const DampingBlock& block, DampingDiagonal& out) {
+  constexpr auto bytes = sizeof(Lanes);
+  for (int first = 0; first < kDampingLanes; first += kWidth) {
+    Mat3<Lanes> G, A;
+    Lanes scale, d[4][9];
+    for (int k = 0; k < 9; ++k) {
+      __builtin_memcpy(&G.m[k], &block.G[k][first], bytes);
+      __builtin_memcpy(&A.m[k], &block.A[k][first], bytes);
+    }
+    __builtin_memcpy(&scale, &block.scale[first], bytes);
+    damping_diagonal_lanes<VectorOps>(G, A, scale, d);
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < 9; ++k) __builtin_memcpy(&out.d[c][k][first], &d[c][k], bytes);
+  }
+}
+
 inline void force_batch_deform_vector(ForceBatch& batch) {
   force_batch_deform_lanes<VectorOps>(batch);
   svd3_batch_vector(batch.svd);
@@ -171,8 +188,8 @@ inline void force_batch_forces_vector(ForceBatch& batch) {
 }
 
 /// The kernels of the including translation unit's instruction set.
-constexpr SimdKernels kVectorKernels = {svd3_batch_vector, damping_block_vector, force_batch_deform_vector,
-                                        force_batch_forces_vector};
+constexpr SimdKernels kVectorKernels = {svd3_batch_vector, damping_block_vector, damping_diagonal_vector,
+                                        force_batch_deform_vector, force_batch_forces_vector};
 
 }  // namespace
 }  // namespace goo::lanes

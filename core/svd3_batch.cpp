@@ -53,6 +53,20 @@ void damping_block_scalar(const DampingBlock& block, DampingLanes& batch) {
   }
 }
 
+void damping_diagonal_scalar(const DampingBlock& block, DampingDiagonal& out) {
+  for (int lane = 0; lane < kDampingLanes; ++lane) {
+    Mat3<double> G, A;
+    double d[4][9];
+    for (int k = 0; k < 9; ++k) {
+      G.m[k] = block.G[k][lane];
+      A.m[k] = block.A[k][lane];
+    }
+    damping_diagonal_lanes<ScalarOps>(G, A, block.scale[lane], d);
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < 9; ++k) out.d[c][k][lane] = d[c][k];
+  }
+}
+
 void force_batch_deform_scalar(ForceBatch& batch) {
   force_batch_deform_lanes<ScalarOps>(batch);
   svd3_batch_scalar(batch.svd);
@@ -62,8 +76,8 @@ void force_batch_forces_scalar(ForceBatch& batch) {
   force_batch_forces_lanes<ScalarOps>(batch);
 }
 
-constexpr SimdKernels kScalarKernels = {svd3_batch_scalar, damping_block_scalar, force_batch_deform_scalar,
-                                        force_batch_forces_scalar};
+constexpr SimdKernels kScalarKernels = {svd3_batch_scalar, damping_block_scalar, damping_diagonal_scalar,
+                                        force_batch_deform_scalar, force_batch_forces_scalar};
 
 SimdLevel widest_supported() {
   for (const SimdLevel level : {SimdLevel::avx512, SimdLevel::avx2, SimdLevel::sse2})
@@ -143,6 +157,10 @@ void svd3_batch(Svd3Batch& batch, SimdLevel level) {
 
 void damping_block(const DampingBlock& block, DampingLanes& lanes, SimdLevel level) {
   simd_kernels(level).damping_block(block, lanes);
+}
+
+void damping_diagonal(const DampingBlock& block, DampingDiagonal& out, SimdLevel level) {
+  simd_kernels(level).damping_diagonal(block, out);
 }
 
 void force_batch_deform(ForceBatch& batch, SimdLevel level) {
