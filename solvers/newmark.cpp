@@ -158,12 +158,6 @@ void NewmarkIntegrator::solve_damped(const Body& body, double h, const Points& r
   });
 }
 
-double NewmarkIntegrator::velocity_norm(const Body& body, const Points& r) {
-  double sum = 0.0;
-  for (Index n = 0; n < body.num_nodes(); ++n) sum += r.row(n).squaredNorm() / body.masses[n];
-  return std::sqrt(sum);
-}
-
 void NewmarkIntegrator::invert_diagonal_blocks(const Body& body, double h) {
   // Block-Jacobi: each node's own 3×3 block of M + hC inverted. C's blocks
   // depend on Fe alone, so one set serves the step's second solve and the
@@ -205,9 +199,15 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
   const bool guessed = guess != nullptr && guess->rows() == nn;
   if (guessed) {
     // The guessed velocities: kept if they leave less residual than v.
-    trial_ = *guess;
-    for (Index n = 0; n < nn; ++n)
-      if (constrained_[at(n)]) trial_.row(n) = v.row(n);  // imposed values kept
+    trial_.resize(nn, 3);
+    for_each_run(nn, kCgRun, [&](Index, Index begin, Index end) {
+      for (Index n = begin; n < end; ++n) {
+        if (constrained_[at(n)])
+          trial_.row(n) = v.row(n);  // imposed values kept
+        else
+          trial_.row(n) = guess->row(n);
+      }
+    });
     damping_.element_pass(body, v, trial_);
   } else {
     damping_.element_pass(body, v);
@@ -226,35 +226,19 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
       Cx += forces[at(incidence.corners[at(i)])];
     return Eigen::Vector3d(m[n] * x.row(n).transpose() - h * Cx);
   };
-  // r = rhs − (M + hC) x at the free nodes, zero at the others.
+  // r = rhs − (M + hC) x at the free nodes, zero at the others; its
+  // rᵀM⁻¹r at n returned.
   auto residual_at = [&](Index n, const Points& x, const std::vector<Eigen::Vector3d>& forces, Points& r) {
     if (constrained_[at(n)]) {
       r.row(n).setZero();
-      return;
+      return 0.0;
     }
     r.row(n) = rhs.row(n) - product_at(n, x, forces).transpose();
+    return r.row(n).squaredNorm() / m[n];
   };
-  for_each_run(nn, kCgRun, [&](Index, Index begin, Index end) {
-    for (Index n = begin; n < end; ++n) {
-      residual_at(n, v, corners, r_);
-      if (guessed) residual_at(n, trial_, trial_corners, r_trial_);
-    }
-  });
-  const double impulse = velocity_norm(body, r_);
-  if (impulse == 0.0) return;  // v already solves it
-  if (guessed && velocity_norm(body, r_trial_) < impulse) {
-    v = trial_;
-    r_.swap(r_trial_);
-  }
-  invert_diagonal_blocks(body, h);  // z_ too
-  p_ = z_;
-  double rz = dot(r_, z_);
-  int iteration = 0;
-  double residual = velocity_norm(body, r_) / impulse;
-  // The iterations run as passes over fixed runs of kCgRun nodes, split
+  // The iterations' passes run over fixed runs of kCgRun nodes, split
   // evenly between the threads like the damping's element pass
   // (for_each_run); sums per run, then run by run.
-  Ap_.resize(nn, 3);
   const Index runs = (nn + kCgRun - 1) / kCgRun;
   run_sums_.resize(2 * at(runs));
   auto over_runs = [&](auto&& f) { for_each_run(nn, kCgRun, f); };
@@ -263,6 +247,33 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
     for (Index run = 0; run < runs; ++run) sum += run_sums_[2 * at(run) + which];
     return sum;
   };
+  // Both residuals and their |r|²_M⁻¹ (the stopping rule's scale) in one
+  // pass.
+  over_runs([&](Index run, Index begin, Index end) {
+    double at_v = 0.0, at_trial = 0.0;
+    for (Index n = begin; n < end; ++n) {
+      at_v += residual_at(n, v, corners, r_);
+      if (guessed) at_trial += residual_at(n, trial_, trial_corners, r_trial_);
+    }
+    run_sums_[2 * at(run)] = at_v;
+    run_sums_[2 * at(run) + 1] = at_trial;
+  });
+  const double impulse = std::sqrt(total(0));
+  if (impulse == 0.0) return;  // v already solves it
+  double residual = 1.0;
+  if (guessed) {
+    const double at_trial = std::sqrt(total(1));
+    if (at_trial < impulse) {
+      copy_in_parallel(trial_, v);
+      r_.swap(r_trial_);
+      residual = at_trial / impulse;
+    }
+  }
+  invert_diagonal_blocks(body, h);  // z_ too
+  p_ = z_;
+  double rz = dot(r_, z_);
+  int iteration = 0;
+  Ap_.resize(nn, 3);
   while (residual > settings_.cg_tolerance && iteration < settings_.cg_max_iterations) {
     // Ap = (M + hC) p at the free nodes (zero at the others), and pᵀAp.
     damping_.element_pass(body, p_);

@@ -62,8 +62,6 @@ class NewmarkIntegrator final : public Integrator {
   /// solve_damped's CG on a right-hand side scaled to about unit size.
   void remove_net_residual(const Body& body, const Points& r, Points& v) const;
   void solve_scaled(const Body& body, double h, const Points& rhs, const Points* guess, Points& v, StepReport& status);
-  /// |r|_M⁻¹ = √(rᵀM⁻¹r): a residual impulse measured as a velocity.
-  [[nodiscard]] static double velocity_norm(const Body& body, const Points& r);
   /// The preconditioner: each node's own block of M + hC, inverted; and
   /// z_, it applied to r_.
   void invert_diagonal_blocks(const Body& body, double h);
