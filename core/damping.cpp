@@ -40,8 +40,26 @@ void Damping::check_frozen(const Body& body) const {
     throw Error("damping: applied to a body it was not frozen for (Damping::freeze after every force evaluation)");
 }
 
+namespace {
+
+/// A velocity field read entry by entry: a matrix of nodal velocities.
+struct NodalVelocities {
+  const Points& v;
+  double operator()(Index node, int i) const { return v(node, i); }
+};
+
+/// z + β p entry by entry, as Eigen's z.row(n) + β p.row(n) rounds it.
+struct NextDirection {
+  const Points& z;
+  const Points& p;
+  double beta;
+  double operator()(Index node, int i) const { return z(node, i) + beta * p(node, i); }
+};
+
+}  // namespace
+
 void Damping::apply(const Body& body, const Points& v, Points& out) {
-  element_loop(body, v, nullptr, tbb::auto_partitioner());
+  element_loop(body, NodalVelocities{v}, static_cast<const NodalVelocities*>(nullptr), false, tbb::auto_partitioner());
   const NodeIncidence& incidence = body.incidence;
   out.resize(static_cast<Index>(incidence.offsets.size() - 1), 3);
   sum_over_corners(
@@ -50,30 +68,51 @@ void Damping::apply(const Body& body, const Points& v, Points& out) {
       [&](Index n, const Eigen::Vector3d& sum) { out.row(n) = sum.transpose(); });
 }
 
-void Damping::element_pass(const Body& body, const Points& v) {
-  element_loop(body, v, nullptr, tbb::static_partitioner());
+void Damping::element_pass(const Body& body, const Points& v, bool corner_blocks) {
+  element_loop(body, NodalVelocities{v}, static_cast<const NodalVelocities*>(nullptr), corner_blocks,
+               tbb::static_partitioner());
 }
 
-void Damping::element_pass(const Body& body, const Points& v, const Points& w) {
-  element_loop(body, v, &w, tbb::static_partitioner());
+void Damping::element_pass(const Body& body, const Points& v, const Points& w, bool corner_blocks) {
+  const NodalVelocities second{w};
+  element_loop(body, NodalVelocities{v}, &second, corner_blocks, tbb::static_partitioner());
 }
 
-template <class Partitioner>
-void Damping::element_loop(const Body& body, const Points& v, const Points* w, const Partitioner& partitioner) {
+void Damping::element_pass(const Body& body, const Points& z, const Points& p, double beta) {
+  element_loop(body, NextDirection{z, p, beta}, static_cast<const NodalVelocities*>(nullptr), false,
+               tbb::static_partitioner());
+}
+
+void Damping::store_corner_blocks(Index b, Index num_elements, SimdLevel level, DampingDiagonal& diagonal) {
+  damping_diagonal(blocks_[at(b)], diagonal, level);
+  const Index first = b * kDampingLanes;
+  const int count = static_cast<int>(std::min<Index>(kDampingLanes, num_elements - first));
+  for (int lane = 0; lane < count; ++lane) {
+    auto& corners = element_blocks_[at(first + lane)];
+    for (std::size_t k = 0; k < 4; ++k)
+      for (int i = 0; i < 9; ++i) corners[k].data()[i] = diagonal.d[k][i][lane];
+  }
+}
+
+template <class Partitioner, class Velocity, class Second>
+void Damping::element_loop(const Body& body, const Velocity& velocity, const Second* second, bool corner_blocks,
+                           const Partitioner& partitioner) {
   const Index ne = body.num_elements();
   check_frozen(body);
   const NodeIncidence& incidence = body.incidence;
   require_slots(incidence, ne, "damping");  // the node sums read corners 4e + k through it
   corner_forces_.resize(4 * at(ne));
-  if (w != nullptr) second_corner_forces_.resize(4 * at(ne));
+  if (second != nullptr) second_corner_forces_.resize(4 * at(ne));
+  if (corner_blocks) element_blocks_.resize(at(ne));
   const SimdLevel level = active_simd_level();
   const auto blocks = static_cast<Index>(blocks_.size());
   tbb::parallel_for(
       tbb::blocked_range<Index>(0, blocks, kParallelGrain / kDampingLanes),
       [&](const tbb::blocked_range<Index>& range) {
         DampingLanes lanes{};
+        DampingDiagonal diagonal;
         // One block's forces for the velocities x, into `out`.
-        auto block_forces = [&](Index b, const Points& x, std::vector<Eigen::Vector3d>& out) {
+        auto block_forces = [&](Index b, const auto& x, std::vector<Eigen::Vector3d>& out) {
           const Index first = b * kDampingLanes;
           const int count = static_cast<int>(std::min<Index>(kDampingLanes, ne - first));
           for (int lane = 0; lane < count; ++lane)
@@ -93,8 +132,9 @@ void Damping::element_loop(const Body& body, const Points& v, const Points* w, c
             }
         };
         for (Index b = range.begin(); b != range.end(); ++b) {
-          block_forces(b, v, corner_forces_);
-          if (w != nullptr) block_forces(b, *w, second_corner_forces_);
+          block_forces(b, velocity, corner_forces_);
+          if (second != nullptr) block_forces(b, *second, second_corner_forces_);
+          if (corner_blocks) store_corner_blocks(b, ne, level, diagonal);
         }
       },
       partitioner);
@@ -127,16 +167,7 @@ void Damping::diagonal_blocks(const Body& body, std::vector<Eigen::Matrix3d>& ou
   tbb::parallel_for(tbb::blocked_range<Index>(0, blocks, kParallelGrain / kDampingLanes),
                     [&](const tbb::blocked_range<Index>& range) {
                       DampingDiagonal diagonal;
-                      for (Index b = range.begin(); b != range.end(); ++b) {
-                        damping_diagonal(blocks_[at(b)], diagonal, level);
-                        const Index first = b * kDampingLanes;
-                        const int count = static_cast<int>(std::min<Index>(kDampingLanes, ne - first));
-                        for (int lane = 0; lane < count; ++lane) {
-                          auto& corners = element_blocks_[at(first + lane)];
-                          for (std::size_t k = 0; k < 4; ++k)
-                            for (int i = 0; i < 9; ++i) corners[k].data()[i] = diagonal.d[k][i][lane];
-                        }
-                      }
+                      for (Index b = range.begin(); b != range.end(); ++b) store_corner_blocks(b, ne, level, diagonal);
                     });
   out.resize(body.incidence.offsets.size() - 1);
   sum_over_corners(

@@ -38,13 +38,24 @@ class Damping {
   /// elements are split evenly between the threads in order (a static
   /// partition), so that a caller's node passes, split the same way, read
   /// mostly what the same thread wrote.
-  void element_pass(const Body& body, const Points& v);
+  /// With `corner_blocks`, each corner's own 3×3 block of C too, from the
+  /// same read of the element's frozen values (into corner_blocks()).
+  void element_pass(const Body& body, const Points& v, bool corner_blocks = false);
   /// The same pass for two velocity fields at once, each element's frozen
   /// values read once for both: v's forces into corner_forces(), w's into
   /// second_corner_forces(), each the same bits as a pass of its own.
-  void element_pass(const Body& body, const Points& v, const Points& w);
+  void element_pass(const Body& body, const Points& v, const Points& w, bool corner_blocks = false);
+  /// The pass for v = z + β p, each node's formed as it is read (the
+  /// conjugate gradients' next direction, before it is stored): the same
+  /// bits as a pass for z + β p computed first.
+  void element_pass(const Body& body, const Points& z, const Points& p, double beta);
   [[nodiscard]] const std::vector<Eigen::Vector3d>& corner_forces() const { return corner_forces_; }
   [[nodiscard]] const std::vector<Eigen::Vector3d>& second_corner_forces() const { return second_corner_forces_; }
+  /// Each corner's block of C (element e's four at [e]), as the last
+  /// diagonal_blocks or element pass with corner_blocks computed them:
+  /// summed over a node's corners in the incidence order from zero, they
+  /// are diagonal_blocks' block of that node.
+  [[nodiscard]] const std::vector<std::array<Eigen::Matrix3d, 4>>& corner_blocks() const { return element_blocks_; }
 
   /// freeze(body, Fe, Fp_inv), then apply(body, v, out).
   void apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe, const std::vector<Eigen::Matrix3d>& Fp_inv,
@@ -63,9 +74,14 @@ class Damping {
   /// The element loop of apply and element_pass. (apply keeps TBB's
   /// default split: BM_DampingApply/12/2 took 0.17 ms with the static one,
   /// 0.11 ms without, its calling thread left waiting for a late worker.)
-  /// With `w`, w's forces too (into second_corner_forces_).
-  template <class Partitioner>
-  void element_loop(const Body& body, const Points& v, const Points* w, const Partitioner& partitioner);
+  /// `velocity(node, i)` is component i of the node's velocity; with
+  /// `second`, a second field's forces too (into second_corner_forces_);
+  /// with `corner_blocks`, the corners' blocks of C (into element_blocks_).
+  template <class Partitioner, class Velocity, class Second>
+  void element_loop(const Body& body, const Velocity& velocity, const Second* second, bool corner_blocks,
+                    const Partitioner& partitioner);
+  /// Block b's corner blocks into element_blocks_.
+  void store_corner_blocks(Index b, Index num_elements, SimdLevel level, DampingDiagonal& diagonal);
   /// Throws unless frozen for a body of this many elements.
   void check_frozen(const Body& body) const;
   /// Each corner's force, element by element (4 e + k).

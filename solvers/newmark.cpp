@@ -158,29 +158,6 @@ void NewmarkIntegrator::solve_damped(const Body& body, double h, const Points& r
   });
 }
 
-void NewmarkIntegrator::invert_diagonal_blocks(const Body& body, double h) {
-  // Block-Jacobi: each node's own 3×3 block of M + hC inverted. C's blocks
-  // depend on Fe alone, so one set serves the step's second solve and the
-  // next step's first (Fe at xⁿ⁺¹ both). Measured on the armadillo grate,
-  // 8 frames, warm started: 24,436 iterations where mass scaling took 37,979.
-  const Index nn = body.num_nodes();
-  if (!blocks_fresh_ || blocks_.size() != static_cast<std::size_t>(nn)) {
-    damping_.diagonal_blocks(body, blocks_);  // C as frozen at the last force evaluation
-    blocks_fresh_ = true;
-  }
-  inverse_blocks_.resize(at(nn));
-  z_.resize(nn, 3);
-  for_each_run(nn, kCgRun, [&](Index, Index begin, Index end) {
-    for (Index n = begin; n < end; ++n) {
-      // Inverted at unit scale: the cofactors of a block of 1e197 kg overflow.
-      const Eigen::Matrix3d block = h * blocks_[at(n)] + body.masses[n] * Eigen::Matrix3d::Identity();
-      const double size = block.trace() / 3.0;
-      inverse_blocks_[at(n)] = (block / size).inverse() / size;
-      z_.row(n) = (inverse_blocks_[at(n)] * r_.row(n).transpose()).transpose();  // the preconditioner on r
-    }
-  });
-}
-
 void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& rhs, const Points* guess, Points& v,
                                      StepReport& status) {
   const Index nn = body.num_nodes();
@@ -195,8 +172,11 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
   // let a heavily damped body keep an error in its rigid motion, where A =
   // M is small beside hC: a block held by friction slid.)
   // The residuals at v and at the guess from one pass over the elements
-  // for both (each the same bits as an application of its own).
+  // for both (each the same bits as an application of its own); with
+  // them, in the first solve after a force evaluation, the corners' blocks
+  // of C for the preconditioner.
   const bool guessed = guess != nullptr && guess->rows() == nn;
+  const bool new_blocks = !blocks_fresh_ || blocks_.size() != at(nn);
   if (guessed) {
     // The guessed velocities: kept if they leave less residual than v.
     trial_.resize(nn, 3);
@@ -208,12 +188,18 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
           trial_.row(n) = guess->row(n);
       }
     });
-    damping_.element_pass(body, v, trial_);
+    damping_.element_pass(body, v, trial_, new_blocks);
   } else {
-    damping_.element_pass(body, v);
+    damping_.element_pass(body, v, new_blocks);
   }
   r_.resize(nn, 3);
-  if (guessed) r_trial_.resize(nn, 3);
+  z_.resize(nn, 3);
+  if (guessed) {
+    r_trial_.resize(nn, 3);
+    z_trial_.resize(nn, 3);
+  }
+  blocks_.resize(at(nn));
+  inverse_blocks_.resize(at(nn));
   const NodeIncidence& incidence = body.incidence;
   const Eigen::VectorXd& m = body.masses;
   const std::vector<Eigen::Vector3d>& corners = damping_.corner_forces();
@@ -247,17 +233,44 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
     for (Index run = 0; run < runs; ++run) sum += run_sums_[2 * at(run) + which];
     return sum;
   };
-  // Both residuals and their |r|²_M⁻¹ (the stopping rule's scale) in one
-  // pass.
+  // The preconditioner, block-Jacobi: each node's own 3×3 block of M + hC
+  // inverted. C's blocks depend on Fe alone, so one set serves the step's
+  // second solve and the next step's first (Fe at xⁿ⁺¹ both). Measured on
+  // the armadillo grate, 8 frames, warm started: 24,436 iterations where
+  // mass scaling took 37,979.
+  const std::vector<std::array<Eigen::Matrix3d, 4>>& corner_blocks = damping_.corner_blocks();
+  auto precondition_at = [&](Index n) {
+    if (new_blocks) {  // C_nn: its corners' blocks summed in the incidence order (Damping::diagonal_blocks)
+      Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+      for (Index i = incidence.offsets[at(n)]; i < incidence.offsets[at(n) + 1]; ++i) {
+        const Index corner = incidence.corners[at(i)];
+        sum += corner_blocks[at(corner / 4)][static_cast<std::size_t>(corner % 4)];
+      }
+      blocks_[at(n)] = sum;
+    }
+    // Inverted at unit scale: the cofactors of a block of 1e197 kg overflow.
+    const Eigen::Matrix3d block = h * blocks_[at(n)] + m[n] * Eigen::Matrix3d::Identity();
+    const double size = block.trace() / 3.0;
+    inverse_blocks_[at(n)] = (block / size).inverse() / size;
+  };
+  // Both residuals, their |r|²_M⁻¹ (the stopping rule's scale) and the
+  // preconditioner on each, z = (M + hC)_nn⁻¹ r, in one pass.
   over_runs([&](Index run, Index begin, Index end) {
     double at_v = 0.0, at_trial = 0.0;
     for (Index n = begin; n < end; ++n) {
+      precondition_at(n);
+      const Eigen::Matrix3d& inverse = inverse_blocks_[at(n)];
       at_v += residual_at(n, v, corners, r_);
-      if (guessed) at_trial += residual_at(n, trial_, trial_corners, r_trial_);
+      z_.row(n) = (inverse * r_.row(n).transpose()).transpose();
+      if (guessed) {
+        at_trial += residual_at(n, trial_, trial_corners, r_trial_);
+        z_trial_.row(n) = (inverse * r_trial_.row(n).transpose()).transpose();
+      }
     }
     run_sums_[2 * at(run)] = at_v;
     run_sums_[2 * at(run) + 1] = at_trial;
   });
+  blocks_fresh_ = true;
   const double impulse = std::sqrt(total(0));
   if (impulse == 0.0) return;  // v already solves it
   double residual = 1.0;
@@ -266,20 +279,32 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
     if (at_trial < impulse) {
       copy_in_parallel(trial_, v);
       r_.swap(r_trial_);
+      z_.swap(z_trial_);
       residual = at_trial / impulse;
     }
   }
-  invert_diagonal_blocks(body, h);  // z_ too
-  p_ = z_;
   double rz = dot(r_, z_);
   int iteration = 0;
+  p_.resize(nn, 3);
   Ap_.resize(nn, 3);
+  // The search direction p = z + β p (p = z at first) is formed where it
+  // is first read, in the element pass, and stored by the node pass that
+  // follows: one pass over the nodes an iteration fewer.
+  double beta = 0.0;
   while (residual > settings_.cg_tolerance && iteration < settings_.cg_max_iterations) {
+    const bool first = iteration == 0;
     // Ap = (M + hC) p at the free nodes (zero at the others), and pᵀAp.
-    damping_.element_pass(body, p_);
+    if (first)
+      damping_.element_pass(body, z_);
+    else
+      damping_.element_pass(body, z_, p_, beta);
     over_runs([&](Index run, Index begin, Index end) {
       double pAp = 0.0;
       for (Index n = begin; n < end; ++n) {
+        if (first)
+          p_.row(n) = z_.row(n);
+        else
+          p_.row(n) = z_.row(n) + beta * p_.row(n);
         if (constrained_[at(n)]) {
           Ap_.row(n).setZero();
           continue;
@@ -309,10 +334,7 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
     residual = std::sqrt(total(0)) / impulse;
     ++iteration;
     const double rz_next = total(1);
-    const double beta = rz_next / rz;
-    over_runs([&](Index, Index begin, Index end) {
-      for (Index n = begin; n < end; ++n) p_.row(n) = z_.row(n) + beta * p_.row(n);
-    });
+    beta = rz_next / rz;
     rz = rz_next;
   }
   remove_net_residual(body, r_, v);

@@ -62,9 +62,6 @@ class NewmarkIntegrator final : public Integrator {
   /// solve_damped's CG on a right-hand side scaled to about unit size.
   void remove_net_residual(const Body& body, const Points& r, Points& v) const;
   void solve_scaled(const Body& body, double h, const Points& rhs, const Points* guess, Points& v, StepReport& status);
-  /// The preconditioner: each node's own block of M + hC, inverted; and
-  /// z_, it applied to r_.
-  void invert_diagonal_blocks(const Body& body, double h);
   void impose_velocities(const Body& body, double t_next, double dt, Points& v) const;
 
   NewmarkSettings settings_;
@@ -86,7 +83,7 @@ class NewmarkIntegrator final : public Integrator {
   double time_ = 0.0;
   std::vector<unsigned char> constrained_;
   // CG work arrays, kept across steps.
-  Points r_, z_, p_, Ap_, trial_, r_trial_;
+  Points r_, z_, p_, Ap_, trial_, r_trial_, z_trial_;
   Points scaled_rhs_, scaled_guess_;    // solve_damped's right-hand side and warm start, scaled
   static constexpr Index kCgRun = 256;  // nodes a run of the CG's passes
   std::vector<double> run_sums_;        // per run, its share of a pass's sums
