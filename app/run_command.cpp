@@ -196,7 +196,8 @@ nlohmann::json to_json(const DampingSolveStats& d) {
           {"cg_iterations", d.iterations},
           {"max_cg_iterations", d.max_iterations},
           {"max_residual", d.max_residual},
-          {"unconverged", d.unconverged}};
+          {"unconverged", d.unconverged},
+          {"preconditioners", d.preconditioners}};
 }
 
 nlohmann::json to_json(const SurfaceQuality& q, const FacingSheets& facing) {

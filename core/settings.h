@@ -38,6 +38,13 @@ struct NewmarkSettings {
   /// scheme's own O(Δt²) error in it (docs/physics.md).
   double cg_tolerance = 1e-6;
   int cg_max_iterations = 1000;
+  /// The damping solves' preconditioner (C's diagonal blocks at the last
+  /// force evaluation's Fe) is recomputed once the deformation since it was,
+  /// Σ ‖Ḟ‖ Δt over the steps, passes preconditioner_strain, and at least
+  /// every preconditioner_steps steps; 0 and 1: at every step. It sets how
+  /// fast the solves converge, never where they stop. (Not scene keys.)
+  double preconditioner_strain = 0.05;
+  int preconditioner_steps = 8;
   /// Incompressible materials: |V_i − V̄_i| ≤ this × V̄_i after each step.
   double volume_tolerance = kVolumeTolerance;
 };

@@ -35,6 +35,12 @@ NewmarkIntegrator::NewmarkIntegrator(NewmarkSettings settings, Constraints const
   if (!(settings_.max_time_step > 0.0)) {
     throw Error(fmt::format("newmark.max_time_step must be positive, got {}", settings_.max_time_step));
   }
+  if (!(settings_.preconditioner_strain >= 0.0) || settings_.preconditioner_steps < 1) {
+    throw Error(
+        fmt::format("newmark: preconditioner_strain must be non-negative and preconditioner_steps positive, got "
+                    "{} and {}",
+                    settings_.preconditioner_strain, settings_.preconditioner_steps));
+  }
   if (!(settings_.max_strain_per_step > 0.0)) {
     throw Error(fmt::format("newmark.max_strain_per_step must be positive, got {}", settings_.max_strain_per_step));
   }
@@ -55,7 +61,8 @@ static bool has_tension(const Body& body) { return EmbeddedTension::active(body)
 void NewmarkIntegrator::evaluate_forces(Body& body, double plastic_dt) {
   StageTimer timer;
   elastic_.evaluate(body, body.positions, plastic_dt, forces_);
-  blocks_fresh_ = false;  // Fe and Fp changed
+  strain_since_blocks_ += std::exchange(step_strain_, 0.0);
+  ++evaluations_since_blocks_;
   damping_.freeze(body, elastic_.elastic_deformation(), elastic_.inverse_plastic_deformation());
   times_.forces += timer.lap();
   if (body.material.incompressible) volume_.add_pressure_forces(body, body.positions, forces_);
@@ -77,6 +84,8 @@ double NewmarkIntegrator::stable_time_step(Body& body) {
   }
   reference_step_ = dt;  // the step without the strain-rate bound (self-collision targets scale by Δt over it)
   const double rate = max_strain_rate(body, body.velocities);
+  strain_rate_ = rate;
+  have_strain_rate_ = true;
   if (rate > 0.0) dt = std::min(dt, settings_.max_strain_per_step / rate);
   return dt;
 }
@@ -173,10 +182,27 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
   // M is small beside hC: a block held by friction slid.)
   // The residuals at v and at the guess from one pass over the elements
   // for both (each the same bits as an application of its own); with
-  // them, in the first solve after a force evaluation, the corners' blocks
-  // of C for the preconditioner.
+  // them, when the preconditioner is renewed, the corners' blocks of C.
   const bool guessed = guess != nullptr && guess->rows() == nn;
-  const bool new_blocks = !blocks_fresh_ || blocks_.size() != at(nn);
+  // C's blocks at the Fe of the last force evaluation, or kept from an
+  // earlier one while the deformation since then is at most
+  // preconditioner_strain (‖ΔF‖ ≤ Σ ‖Ḟ‖ Δt) and for fewer than
+  // preconditioner_steps force evaluations, one a step (plastic flow
+  // moves Fe where F stands still). A preconditioner sets how fast CG converges, never where it
+  // stops (the stopping rule measures the true residual): blocks of
+  // Fe Feᵀ off by at most ε ≈ 2 × 0.05 = 10% (the default) multiply the
+  // condition number by at most (1 + ε)/(1 − ε) ≈ 1.22, CG's iterations by
+  // its square root, 1.1. Measured: the fine drop's frames 25–30 took
+  // 2,208 iterations with blocks renewed at every evaluation and with
+  // these (65 renewals in 375 steps), the armadillo grate's 49–50 10,664
+  // and 10,663 (docs/physics.md).
+  const bool new_blocks = !blocks_fresh_ || blocks_.size() != at(nn) ||
+                          strain_since_blocks_ > settings_.preconditioner_strain ||
+                          evaluations_since_blocks_ >= settings_.preconditioner_steps;
+  if (new_blocks) {
+    strain_since_blocks_ = 0.0;
+    evaluations_since_blocks_ = 0;
+  }
   if (guessed) {
     // The guessed velocities: kept if they leave less residual than v.
     trial_.resize(nn, 3);
@@ -234,10 +260,8 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
     return sum;
   };
   // The preconditioner, block-Jacobi: each node's own 3×3 block of M + hC
-  // inverted. C's blocks depend on Fe alone, so one set serves the step's
-  // second solve and the next step's first (Fe at xⁿ⁺¹ both). Measured on
-  // the armadillo grate, 8 frames, warm started: 24,436 iterations where
-  // mass scaling took 37,979.
+  // inverted. Measured on the armadillo grate, 8 frames, warm started:
+  // 24,436 iterations where mass scaling took 37,979.
   const std::vector<std::array<Eigen::Matrix3d, 4>>& corner_blocks = damping_.corner_blocks();
   auto precondition_at = [&](Index n) {
     if (new_blocks) {  // C_nn: its corners' blocks summed in the incidence order (Damping::diagonal_blocks)
@@ -340,6 +364,7 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
   remove_net_residual(body, r_, v);
   DampingSolveStats& stats = status.damping;
   ++stats.solves;
+  if (new_blocks) ++stats.preconditioners;
   stats.iterations += iteration;
   stats.max_iterations = std::max(stats.max_iterations, iteration);
   stats.max_residual = std::max(stats.max_residual, residual);
@@ -398,6 +423,13 @@ void NewmarkIntegrator::begin_step(Body& body, double dt) {
   pending_ = StepReport{};
   StepReport& status = pending_;
   step_dt_ = dt;
+  // The deformation this step may add, ‖Ḟ‖ Δt at its start (the rate
+  // stable_time_step measured, or measured here if it was not called):
+  // the damping preconditioner is refreshed when the sum since its blocks
+  // were computed passes preconditioner_strain (solve_scaled).
+  if (!have_strain_rate_) strain_rate_ = max_strain_rate(body, body.velocities);
+  have_strain_rate_ = false;
+  step_strain_ = strain_rate_ * dt;  // counted at the step's force evaluation
   StageTimer timer;
   const double h = 0.5 * dt;
   const double t_next = time_ + dt;

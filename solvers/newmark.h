@@ -39,6 +39,7 @@ class NewmarkIntegrator final : public Integrator {
   /// Forget cached forces (after the body's mesh or state changed outside).
   void invalidate() override {
     have_forces_ = false;
+    blocks_fresh_ = false;
     volume_.reset();
     for (Points& last : last_solutions_) last.resize(0, 3);  // no warm start: the next steps depend on the body's state alone
   }
@@ -89,9 +90,14 @@ class NewmarkIntegrator final : public Integrator {
   std::vector<double> run_sums_;        // per run, its share of a pass's sums
   /// Each half step's last damping solution, m/s (the next step's warm start for that half).
   std::array<Points, 2> last_solutions_;
-  std::vector<Eigen::Matrix3d> blocks_;  // C's diagonal blocks at the recorded Fe (fresh while blocks_fresh_)
+  std::vector<Eigen::Matrix3d> blocks_;          // C's diagonal blocks at an Fe since which strain_since_blocks_
   std::vector<Eigen::Matrix3d> inverse_blocks_;  // the solve's preconditioner (m I + h C_nn)⁻¹
-  bool blocks_fresh_ = false;
+  bool blocks_fresh_ = false;                    // false: blocks_ are of another body (or none)
+  double strain_since_blocks_ = 0.0;             // Σ ‖Ḟ‖ Δt over the steps since blocks_ were computed
+  int evaluations_since_blocks_ = 0;             // force evaluations since blocks_ were computed
+  double step_strain_ = 0.0;                     // ‖Ḟ‖ Δt of the step begun, until its force evaluation
+  double strain_rate_ = 0.0;                     // max ‖Ḟ‖ at the step's start, 1/s
+  bool have_strain_rate_ = false;                // strain_rate_ measured by stable_time_step for this step
 };
 
 }  // namespace goo

@@ -35,9 +35,11 @@ struct DampingSolveStats {
   int max_iterations = 0;       ///< the most any one solve took
   double max_residual = 0.0;    ///< the largest final ‖r‖ / ‖rhs‖
   std::int64_t unconverged = 0;  ///< solves stopped by cg_max_iterations
+  std::int64_t preconditioners = 0;  ///< solves that computed the preconditioner's blocks anew
 
   DampingSolveStats& operator+=(const DampingSolveStats& o) {
     solves += o.solves, iterations += o.iterations, unconverged += o.unconverged;
+    preconditioners += o.preconditioners;
     max_iterations = std::max(max_iterations, o.max_iterations);
     max_residual = std::max(max_residual, o.max_residual);
     return *this;
