@@ -3,6 +3,7 @@
 // 2003): elastic forces explicit, damping implicit, one elastic force
 // evaluation per step, variable time step (algorithms.md, "Time integration").
 #include <array>
+#include <limits>
 
 #include "core/body.h"
 #include "core/collisions.h"
@@ -92,6 +93,7 @@ class NewmarkIntegrator final : public Integrator {
   std::array<Points, 2> last_solutions_;
   std::vector<Eigen::Matrix3d> blocks_;          // C's diagonal blocks at an Fe since which strain_since_blocks_
   std::vector<Eigen::Matrix3d> inverse_blocks_;  // the solve's preconditioner (m I + h C_nn)⁻¹
+  double inverse_h_ = std::numeric_limits<double>::quiet_NaN();  // the h of inverse_blocks_ (of blocks_ as they are)
   bool blocks_fresh_ = false;                    // false: blocks_ are of another body (or none)
   double strain_since_blocks_ = 0.0;             // Σ ‖Ḟ‖ Δt over the steps since blocks_ were computed
   int evaluations_since_blocks_ = 0;             // force evaluations since blocks_ were computed
