@@ -297,27 +297,55 @@ TEST(Damping, AFrozenOperatorIsRefusedForABodyItWasNotFrozenFor) {
   EXPECT_TRUE(test::throws_error_containing([&] { forces.evaluate(stale, stale.positions, 0.0, f); }, "node incidence"));
 }
 
+/// A cube of 4·5³·6 = 750 elements (not a multiple of eight), some of them
+/// inverted, with a plastic deformation, its forces evaluated (Fe and Fp⁻¹
+/// recorded), drawn from `rng`.
+struct ShakenCube {
+  Body body = make_cube(ElasticModel::neo_hookean, 5);
+  ElasticForces forces;
+  explicit ShakenCube(std::mt19937& rng) {
+    body.material.viscosity = 3.0;
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    Points x = body.positions;
+    for (Index n = 0; n < body.num_nodes(); ++n)
+      for (int k = 0; k < 3; ++k) x(n, k) += 0.3 * u(rng);  // inverts some elements
+    for (auto& Fp : body.Fp) Fp += 0.1 * Eigen::Matrix3d::NullaryExpr([&] { return u(rng); });
+    Points f;
+    forces.evaluate(body, x, 0.0, f);
+  }
+};
+
+/// The frozen damping operator of elements first … first + 7 (lanes past
+/// the last element zero), as Damping::freeze stores it.
+DampingBlock frozen_block(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
+                          const std::vector<Eigen::Matrix3d>& Fp_inv, Index first) {
+  DampingBlock block{};
+  for (int lane = 0; lane < kDampingLanes && first + lane < body.num_elements(); ++lane) {
+    const auto k = static_cast<std::size_t>(first + lane);
+    const Eigen::Matrix3d A = body.Dm_inv[k] * Fp_inv[k];
+    for (int i = 0; i < 9; ++i) {
+      block.G[i][lane] = Fe[k].data()[i];
+      block.A[i][lane] = A.data()[i];
+    }
+    block.scale[lane] = 2.0 * body.material.viscosity * body.rest_volumes[first + lane] / Fp_inv[k].determinant();
+  }
+  return block;
+}
+
 // The operator runs eight elements at a time in vector lanes; each lane must
 // give the bits of the element loop it replaced (Eigen's expressions, below)
 // at every instruction-set level, with a plastic deformation and inverted
 // elements among them, and a last block that is not full (4·5³·6 = 750 is
 // not a multiple of eight).
 TEST(Damping, EveryVectorWidthGivesTheElementLoopsBits) {
-  Body body = make_cube(ElasticModel::neo_hookean, 5);
-  body.material.viscosity = 3.0;
-  ASSERT_NE(body.num_elements() % kDampingLanes, 0);
   std::mt19937 rng(11);
+  const ShakenCube cube(rng);
+  const Body& body = cube.body;
+  ASSERT_NE(body.num_elements() % kDampingLanes, 0);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Points x = body.positions;
-  for (Index n = 0; n < body.num_nodes(); ++n)
-    for (int k = 0; k < 3; ++k) x(n, k) += 0.3 * u(rng);  // inverts some elements
-  for (auto& Fp : body.Fp) Fp += 0.1 * Eigen::Matrix3d::NullaryExpr([&] { return u(rng); });
-  ElasticForces forces;
-  Points f;
-  forces.evaluate(body, x, 0.0, f);
   const Points v = Points::NullaryExpr(body.num_nodes(), 3, [&] { return u(rng); });
-  const auto& Fe = forces.elastic_deformation();
-  const auto& Fp_inv = forces.inverse_plastic_deformation();
+  const auto& Fe = cube.forces.elastic_deformation();
+  const auto& Fp_inv = cube.forces.inverse_plastic_deformation();
 
   std::vector<Matrix34> per_element(static_cast<std::size_t>(body.num_elements()));
   for (Index e = 0; e < body.num_elements(); ++e) {
@@ -349,19 +377,11 @@ TEST(Damping, EveryVectorWidthGivesTheElementLoopsBits) {
     if (!simd_level_supported(level)) continue;
     int differing = 0;
     for (Index first = 0; first < body.num_elements(); first += kDampingLanes) {
-      DampingBlock block{};
+      const DampingBlock block = frozen_block(body, Fe, Fp_inv, first);
       DampingLanes lanes{};
-      for (int lane = 0; lane < kDampingLanes && first + lane < body.num_elements(); ++lane) {
-        const auto k = static_cast<std::size_t>(first + lane);
-        const Eigen::Matrix3d A = body.Dm_inv[k] * Fp_inv[k];
-        for (int i = 0; i < 9; ++i) {
-          block.G[i][lane] = Fe[k].data()[i];
-          block.A[i][lane] = A.data()[i];
-        }
-        block.scale[lane] = 2.0 * body.material.viscosity * body.rest_volumes[first + lane] / Fp_inv[k].determinant();
+      for (int lane = 0; lane < kDampingLanes && first + lane < body.num_elements(); ++lane)
         for (int c = 0; c < 4; ++c)
           for (int i = 0; i < 3; ++i) lanes.v[c][i][lane] = v(body.tets(first + lane, c), i);
-      }
       damping_block(block, lanes, level);
       for (int lane = 0; lane < kDampingLanes && first + lane < body.num_elements(); ++lane)
         for (int c = 0; c < 4; ++c)
@@ -378,20 +398,12 @@ TEST(Damping, EveryVectorWidthGivesTheElementLoopsBits) {
 // Eigen formula below, summed over each node's corners in the incidence
 // order), at every level, on the same inverted, plastically deformed cube.
 TEST(Damping, DiagonalBlocksAtEveryVectorWidthGiveTheElementLoopsBits) {
-  Body body = make_cube(ElasticModel::neo_hookean, 5);
-  body.material.viscosity = 3.0;
-  ASSERT_NE(body.num_elements() % kDampingLanes, 0);
   std::mt19937 rng(13);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  Points x = body.positions;
-  for (Index n = 0; n < body.num_nodes(); ++n)
-    for (int k = 0; k < 3; ++k) x(n, k) += 0.3 * u(rng);  // inverts some elements
-  for (auto& Fp : body.Fp) Fp += 0.1 * Eigen::Matrix3d::NullaryExpr([&] { return u(rng); });
-  ElasticForces forces;
-  Points f;
-  forces.evaluate(body, x, 0.0, f);
-  const auto& Fe = forces.elastic_deformation();
-  const auto& Fp_inv = forces.inverse_plastic_deformation();
+  const ShakenCube cube(rng);
+  const Body& body = cube.body;
+  ASSERT_NE(body.num_elements() % kDampingLanes, 0);
+  const auto& Fe = cube.forces.elastic_deformation();
+  const auto& Fp_inv = cube.forces.inverse_plastic_deformation();
 
   std::vector<std::array<Eigen::Matrix3d, 4>> per_element(static_cast<std::size_t>(body.num_elements()));
   for (Index e = 0; e < body.num_elements(); ++e) {
@@ -428,17 +440,8 @@ TEST(Damping, DiagonalBlocksAtEveryVectorWidthGiveTheElementLoopsBits) {
     if (!simd_level_supported(level)) continue;
     int differing = 0;
     for (Index first = 0; first < body.num_elements(); first += kDampingLanes) {
-      DampingBlock block{};
+      const DampingBlock block = frozen_block(body, Fe, Fp_inv, first);
       DampingDiagonal diagonal{};
-      for (int lane = 0; lane < kDampingLanes && first + lane < body.num_elements(); ++lane) {
-        const auto k = static_cast<std::size_t>(first + lane);
-        const Eigen::Matrix3d A = body.Dm_inv[k] * Fp_inv[k];
-        for (int i = 0; i < 9; ++i) {
-          block.G[i][lane] = Fe[k].data()[i];
-          block.A[i][lane] = A.data()[i];
-        }
-        block.scale[lane] = 2.0 * body.material.viscosity * body.rest_volumes[first + lane] / Fp_inv[k].determinant();
-      }
       damping_diagonal(block, diagonal, level);
       for (int lane = 0; lane < kDampingLanes && first + lane < body.num_elements(); ++lane)
         for (int c = 0; c < 4; ++c)

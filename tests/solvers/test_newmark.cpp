@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <utility>
 
 #include "core/body.h"
 #include "core/elastic_forces.h"
@@ -76,6 +77,22 @@ TEST(Newmark, DampedFreeBodyConservesMomentumToRoundOffWhateverTheSolverToleranc
   }
 }
 
+/// 40 steps of a soft viscous cube (β = 20 Pa·s), stretched and kicked:
+/// its final velocities and its largest over its smallest nodal mass; the
+/// damping solves' figures into *stats, Σ |Δv| over the steps into *changes.
+std::pair<Points, double> soft_cube_run(const NewmarkSettings& settings, DampingSolveStats* stats, double* changes) {
+  Body body = make_cube(ElasticModel::neo_hookean, 3, 20.0);
+  for (Index n = 0; n < body.num_nodes(); ++n) body.positions(n, 2) *= 1.3;
+  kick(body, 3);
+  NewmarkIntegrator integrator(settings, {}, kNoGravity);
+  for (int i = 0; i < 40; ++i) {
+    const Points before = body.velocities;
+    *stats += integrator.step(body, 1.0).damping;
+    *changes += (body.velocities - before).norm();
+  }
+  return {Points(body.velocities), body.masses.maxCoeff() / body.masses.minCoeff()};
+}
+
 TEST(Newmark, DampingSolveMeetsItsToleranceAndATighterOneChangesLittle) {
   // The solve stops at cg_tolerance τ of the half step's impulse r₀ = A Δv
   // (A = M + hC, Δv the exact increment): its error A⁻¹r is at most
@@ -83,18 +100,9 @@ TEST(Newmark, DampingSolveMeetsItsToleranceAndATighterOneChangesLittle) {
   // stays within τ κ Σ|Δv| of one at 1e-12, Σ over the steps' changes
   // (errors carried on by the undamped-to-damped dynamics do not grow).
   auto run = [](double tolerance, DampingSolveStats* stats, double* changes) {
-    Body body = make_cube(ElasticModel::neo_hookean, 3, 20.0);
-    for (Index n = 0; n < body.num_nodes(); ++n) body.positions(n, 2) *= 1.3;
-    kick(body, 3);
     NewmarkSettings settings;
     settings.cg_tolerance = tolerance;
-    NewmarkIntegrator integrator(settings, {}, kNoGravity);
-    for (int i = 0; i < 40; ++i) {
-      const Points before = body.velocities;
-      *stats += integrator.step(body, 1.0).damping;
-      *changes += (body.velocities - before).norm();
-    }
-    return std::pair{Points(body.velocities), body.masses.maxCoeff() / body.masses.minCoeff()};
+    return soft_cube_run(settings, stats, changes);
   };
   DampingSolveStats loose, tight;
   double changes = 0.0, unused = 0.0;
@@ -124,22 +132,10 @@ TEST(Newmark, APreconditionerKeptOverSeveralStepsChangesTheSolvesOnlyWithinTheir
   never_settings.preconditioner_strain = 1e300;
   never_settings.preconditioner_steps = std::numeric_limits<int>::max();
   {
-    auto run = [](const NewmarkSettings& settings, DampingSolveStats* stats, double* changes) {
-      Body body = make_cube(ElasticModel::neo_hookean, 3, 20.0);
-      for (Index n = 0; n < body.num_nodes(); ++n) body.positions(n, 2) *= 1.3;
-      kick(body, 3);
-      NewmarkIntegrator integrator(settings, {}, kNoGravity);
-      for (int i = 0; i < 40; ++i) {
-        const Points before = body.velocities;
-        *stats += integrator.step(body, 1.0).damping;
-        *changes += (body.velocities - before).norm();
-      }
-      return std::pair{Points(body.velocities), body.masses.maxCoeff() / body.masses.minCoeff()};
-    };
     DampingSolveStats fresh, kept;
     double changes = 0.0, unused = 0.0;
-    const auto [v_fresh, mass_ratio] = run(fresh_settings, &fresh, &changes);
-    const auto [v_kept, same_ratio] = run(NewmarkSettings{}, &kept, &unused);
+    const auto [v_fresh, mass_ratio] = soft_cube_run(fresh_settings, &fresh, &changes);
+    const auto [v_kept, same_ratio] = soft_cube_run(NewmarkSettings{}, &kept, &unused);
     EXPECT_EQ(fresh.solves, 80);
     EXPECT_EQ(fresh.preconditioners, 41);  // both solves of the first step, then each step's second
     EXPECT_LT(kept.preconditioners, fresh.preconditioners);
