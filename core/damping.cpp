@@ -170,12 +170,7 @@ void Damping::diagonal_blocks(const Body& body, std::vector<Eigen::Matrix3d>& ou
                       for (Index b = range.begin(); b != range.end(); ++b) store_corner_blocks(b, ne, level, diagonal);
                     });
   out.resize(body.incidence.offsets.size() - 1);
-  sum_over_corners(
-      body.incidence, Eigen::Matrix3d::Zero().eval(),
-      [&](Index corner) -> const Eigen::Matrix3d& {
-        return element_blocks_[at(corner / 4)][static_cast<std::size_t>(corner % 4)];
-      },
-      [&](Index n, const Eigen::Matrix3d& sum) { out[at(n)] = sum; });
+  for_each_index(static_cast<Index>(out.size()), [&](Index n) { out[at(n)] = node_block(body.incidence, n); });
 }
 
 double max_strain_rate(const Body& body, const Points& v) {

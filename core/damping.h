@@ -56,6 +56,16 @@ class Damping {
   /// summed over a node's corners in the incidence order from zero, they
   /// are diagonal_blocks' block of that node.
   [[nodiscard]] const std::vector<std::array<Eigen::Matrix3d, 4>>& corner_blocks() const { return element_blocks_; }
+  /// Node n's own block of C from corner_blocks(): its corners' blocks
+  /// summed from zero in the incidence order (diagonal_blocks' sum).
+  [[nodiscard]] Eigen::Matrix3d node_block(const NodeIncidence& incidence, Index n) const {
+    Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+    for (Index i = incidence.offsets[at(n)]; i < incidence.offsets[at(n) + 1]; ++i) {
+      const Index corner = incidence.corners[at(i)];
+      sum += element_blocks_[at(corner / 4)][static_cast<std::size_t>(corner % 4)];
+    }
+    return sum;
+  }
 
   /// freeze(body, Fe, Fp_inv), then apply(body, v, out).
   void apply(const Body& body, const std::vector<Eigen::Matrix3d>& Fe, const std::vector<Eigen::Matrix3d>& Fp_inv,

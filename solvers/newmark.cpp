@@ -188,11 +188,11 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
   // earlier one while the deformation since then is at most
   // preconditioner_strain (‖ΔF‖ ≤ Σ ‖Ḟ‖ Δt) and for fewer than
   // preconditioner_steps force evaluations, one a step (plastic flow
-  // moves Fe where F stands still). A preconditioner sets how fast CG converges, never where it
-  // stops (the stopping rule measures the true residual): blocks of
-  // Fe Feᵀ off by at most ε ≈ 2 × 0.05 = 10% (the default) multiply the
-  // condition number by at most (1 + ε)/(1 − ε) ≈ 1.22, CG's iterations by
-  // its square root, 1.1. Measured: the fine drop's frames 25–30 took
+  // moves Fe where F stands still). A preconditioner sets how fast CG
+  // converges, never where it stops (the stopping rule measures the true
+  // residual): blocks of Fe Feᵀ off by at most ε ≈ 2 × 0.05 = 10% (the
+  // default) multiply the condition number by at most (1 + ε)/(1 − ε) ≈
+  // 1.22, CG's iterations by its square root, 1.1. Measured: the fine drop's frames 25–30 took
   // 2,208 iterations with blocks renewed at every evaluation and with
   // these (65 renewals in 375 steps), the armadillo grate's 49–50 10,664
   // and 10,663 (docs/physics.md).
@@ -265,17 +265,9 @@ void NewmarkIntegrator::solve_scaled(const Body& body, double h, const Points& r
   // h (a step's two solves, unless the blocks are renewed between them)
   // give the same inverses: kept.
   const bool same_inverses = !new_blocks && h == inverse_h_;
-  const std::vector<std::array<Eigen::Matrix3d, 4>>& corner_blocks = damping_.corner_blocks();
   auto precondition_at = [&](Index n) {
     if (same_inverses) return;
-    if (new_blocks) {  // C_nn: its corners' blocks summed in the incidence order (Damping::diagonal_blocks)
-      Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
-      for (Index i = incidence.offsets[at(n)]; i < incidence.offsets[at(n) + 1]; ++i) {
-        const Index corner = incidence.corners[at(i)];
-        sum += corner_blocks[at(corner / 4)][static_cast<std::size_t>(corner % 4)];
-      }
-      blocks_[at(n)] = sum;
-    }
+    if (new_blocks) blocks_[at(n)] = damping_.node_block(incidence, n);  // C_nn, as Damping::diagonal_blocks sums it
     // Inverted at unit scale: the cofactors of a block of 1e197 kg overflow.
     const Eigen::Matrix3d block = h * blocks_[at(n)] + m[n] * Eigen::Matrix3d::Identity();
     const double size = block.trace() / 3.0;

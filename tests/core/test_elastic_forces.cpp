@@ -434,6 +434,17 @@ TEST(Damping, DiagonalBlocksAtEveryVectorWidthGiveTheElementLoopsBits) {
   damping.diagonal_blocks(body, Fe, Fp_inv, blocks);
   ASSERT_EQ(blocks.size(), expected.size());
   EXPECT_EQ(std::memcmp(blocks.data(), expected.data(), sizeof(Eigen::Matrix3d) * blocks.size()), 0);
+  // The damping solve's way: the corner blocks from an element pass, each
+  // node's summed by node_block.
+  Damping passing;
+  passing.freeze(body, Fe, Fp_inv);
+  passing.element_pass(body, Points::Zero(body.num_nodes(), 3), true);
+  int nodes_differing = 0;
+  for (Index n = 0; n < body.num_nodes(); ++n) {
+    const Eigen::Matrix3d block = passing.node_block(incidence, n);
+    nodes_differing += std::memcmp(block.data(), expected[static_cast<std::size_t>(n)].data(), sizeof(block)) != 0;
+  }
+  EXPECT_EQ(nodes_differing, 0);
 
   // Block by block at every level this processor has.
   for (const SimdLevel level : {SimdLevel::scalar, SimdLevel::sse2, SimdLevel::avx2, SimdLevel::avx512}) {
