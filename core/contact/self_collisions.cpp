@@ -308,12 +308,15 @@ bool SelfCollisions::update_edges(const Triangles& triangles) {
   return true;
 }
 
-SelfCollisions::ListCheck SelfCollisions::list_holds(const Points& xs0, const Points& ds) {
+SelfCollisions::ListCheck SelfCollisions::list_holds(const Points& xs0, const Points& ds,
+                                                     const std::vector<Index>* changed) {
   // Every vertex, at the start and the end of the step, within its margin
   // (each coordinate) of its place at the build moved by its cluster's mean
   // motion since; and every two clusters' mean motions within their
   // allowance of each other. Both are convex in t and the motions linear
   // over the step: the two ends are enough.
+  const bool held = std::exchange(held_, false);
+  if (changed && held && !check_every_cluster_) return list_holds_again(xs0, ds, *changed);
   const auto nv = static_cast<Index>(xs0.rows()); const Index nc = clusters_;
   std::array<Points, 2>& mean = cluster_motion_;
   mean = {Points::Zero(nc, 3), Points::Zero(nc, 3)};
@@ -358,7 +361,79 @@ SelfCollisions::ListCheck SelfCollisions::list_holds(const Points& xs0, const Po
     }
     if (!all) within.store(false, std::memory_order_relaxed);
   });
-  return within.load() ? ListCheck::holds : ListCheck::vertices_past_margins;
+  held_ = within.load();
+  return held_ ? ListCheck::holds : ListCheck::vertices_past_margins;
+}
+
+SelfCollisions::ListCheck SelfCollisions::list_holds_again(const Points& xs0, const Points& ds,
+                                                           const std::vector<Index>& changed) {
+  // The last check held at these start positions: every start motion,
+  // every cluster pair and every drift passed, and only the `changed`
+  // vertices' end motions differ now. Their clusters' end means are summed
+  // again as list_holds sums them (the same bits); the pairs and drifts
+  // that read them are measured again, the rest passed with the values
+  // they would have now.
+  const Index nc = clusters_;
+  std::array<Points, 2>& mean = cluster_motion_;
+  cluster_changed_.assign(at(nc), 0);
+  changed_clusters_.clear();
+  for (const Index v : changed) {
+    const Index c = cluster_[at(v)];
+    if (!cluster_changed_[at(c)]) {
+      cluster_changed_[at(c)] = 1;
+      changed_clusters_.push_back(c);
+    }
+  }
+  const auto num_changed = static_cast<Index>(changed_clusters_.size());
+  for_each_index(
+      num_changed,
+      [&](Index k) {
+        const Index c = changed_clusters_[at(k)];
+        Eigen::RowVector3d end_sum = Eigen::RowVector3d::Zero();
+        for (Index i = cluster_offsets_[at(c)]; i < cluster_offsets_[at(c) + 1]; ++i) {
+          const Index v = cluster_vertices_[at(i)];
+          const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v);
+          end_sum += start + ds.row(v);
+        }
+        mean[1].row(c) = end_sum / double(cluster_size_[at(c)]);
+      },
+      1);
+  const bool parted = any_index(
+      num_changed,
+      [&](Index k) {  // the pairs of a changed cluster with every other (each pair a < b as list_holds reads it)
+        const Index c = changed_clusters_[at(k)];
+        for (Index o = 0; o < nc; ++o) {
+          if (o == c) continue;
+          const Index a = std::min(c, o), b = std::max(c, o);
+          const double allowed = allowance_[at(a * nc + b)];
+          if (!((mean[0].row(a) - mean[0].row(b)).cwiseAbs().maxCoeff() <= allowed &&
+                (mean[1].row(a) - mean[1].row(b)).cwiseAbs().maxCoeff() <= allowed))
+            return true;
+        }
+        return false;
+      },
+      1);
+  if (parted) return ListCheck::clusters_parted;
+  // Each changed cluster's vertices' drifts, all of them (extend_list
+  // reads those past their margins).
+  cluster_past_.assign(at(num_changed), 0);
+  for_each_index(
+      num_changed,
+      [&](Index k) {
+        const Index c = changed_clusters_[at(k)];
+        bool all = true;
+        for (Index i = cluster_offsets_[at(c)]; i < cluster_offsets_[at(c) + 1]; ++i) {
+          const Index v = cluster_vertices_[at(i)];
+          const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v) - mean[0].row(c);
+          const Eigen::RowVector3d end = xs0.row(v) + ds.row(v) - list_positions_.row(v) - mean[1].row(c);
+          drift_[at(v)] = std::max(start.cwiseAbs().maxCoeff(), end.cwiseAbs().maxCoeff());
+          all = all && drift_[at(v)] <= margin_[at(v)];
+        }
+        cluster_past_[at(k)] = all ? 0 : 1;
+      },
+      1);
+  held_ = std::find(cluster_past_.begin(), cluster_past_.end(), 1) == cluster_past_.end();
+  return held_ ? ListCheck::holds : ListCheck::vertices_past_margins;
 }
 
 void SelfCollisions::make_clusters(const Points& xs0) {
@@ -494,7 +569,8 @@ double SelfCollisions::allowance(Index a, Index b, double thickness) const {
 }
 
 bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const Points& d, const Points& xs0,
-                                     const Points& ds, double thickness, SelfCollisionStats& stats) {
+                                     const Points& ds, double thickness, SelfCollisionStats& stats,
+                                     const std::vector<Index>* changed) {
   const Index nv = body.embedding.num_vertices();
   const Index nt = static_cast<Index>(body.surface_triangles.rows());
   const Triangles& tris = body.surface_triangles;
@@ -506,11 +582,12 @@ bool SelfCollisions::find_candidates(const Body& body, const Points& x0, const P
   ListCheck ended = ListCheck::holds;  // no list to keep
   if (list_valid_ && list_positions_.rows() == nv && same_bits(list_parents_, body.embedding.parent) &&
       cluster_.size() == at(nv)) {
-    const ListCheck check = list_holds(xs0, ds);
-    if (check == ListCheck::holds) return false;
+    const ListCheck check = list_holds(xs0, ds, changed);
+    if (check == ListCheck::holds) return false;  // (held_ set: the next check may measure the changed clusters only)
     if (check == ListCheck::vertices_past_margins && extend_list(body, ds, thickness, stats)) return true;
     ended = check;
   }
+  held_ = false;  // a new list: its first check measures everything
   // Where clusters parted the last list, the next lets them part further.
   parting_factor_ = ended == ListCheck::clusters_parted ? kPartedFactor : kPartingFactor;
   // A new list, in frames that move with the surface nearby: the surface's
@@ -1132,7 +1209,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
       body.embedding.update_surface_positions(body.tets, d, *changed, ds);
     else
       ds = body.embedding.surface_positions(body.tets, d);
-    const bool rebuilt = find_candidates(body, x0, d, xs0, ds, thickness, stats);
+    const bool rebuilt = find_candidates(body, x0, d, xs0, ds, thickness, stats, changed);
     // Impulses and rigid zones move nodes: an element may no longer stay
     // positive, a star no longer calm (their pairs are measured from now
     // on; an element's vertices are among the flagged ones, as a node of it

@@ -93,6 +93,12 @@ class SelfCollisions {
   SelfCollisionStats resolve_step(Body& body, const Points& x0, double dt, const std::vector<std::uint8_t>& fixed,
                                   const SelfCollisionParameters& parameters);
 
+  /// Whether the list's checks after a round's impulses measure every
+  /// cluster (true) or only those holding a vertex the impulses moved
+  /// (false, the default): the same results, bit for bit, either way
+  /// (tests compare them).
+  void set_check_every_cluster(bool every) { check_every_cluster_ = every; }
+
  private:
   struct Pair {
     std::uint8_t kind;              // ccd::PairKind
@@ -111,8 +117,10 @@ class SelfCollisions {
   /// vertex stays within its margin of where it was at the build (after the
   /// surface's mean translation); kept while that holds.
   /// Returns whether the list was built anew.
+  /// With `changed` (ascending), only those vertices' displacements ds
+  /// may differ from the last call's, within the same step.
   bool find_candidates(const Body& body, const Points& x0, const Points& d, const Points& xs0, const Points& ds,
-                       double thickness, SelfCollisionStats& stats);
+                       double thickness, SelfCollisionStats& stats, const std::vector<Index>* changed = nullptr);
   /// The primitive pairs of triangles A and B the list holds (A's own
   /// vertices against B and B's against A, their own edges against each
   /// other; boxes of the build overlapping), measured at `xs`.
@@ -150,9 +158,13 @@ class SelfCollisions {
   /// reporting distance: each vertex within its margin of its cluster's
   /// motion, and every two clusters within their allowance, at the step's
   /// start xs0 and end xs0 + ds. Sets drift_ (every vertex's) and
-  /// cluster_motion_.
+  /// cluster_motion_. With `changed` (ascending), after a check that held
+  /// for the same xs0 and the same list, only those vertices' ds may have
+  /// changed: only their clusters are measured again (the others' motions,
+  /// drifts and allowances are as the last check found them), with the
+  /// same result and the same bits as a check of all.
   enum class ListCheck { holds, vertices_past_margins, clusters_parted };
-  ListCheck list_holds(const Points& xs0, const Points& ds);
+  ListCheck list_holds(const Points& xs0, const Points& ds, const std::vector<Index>* changed = nullptr);
   /// Keeps a list whose clusters hold but a few of whose vertices drifted
   /// past their margins: widens those margins, grows their primitives'
   /// boxes and lists the pairs the wider boxes reach, as a build with those
@@ -286,6 +298,12 @@ class SelfCollisions {
   std::vector<double> largest_;       // per cluster: the largest margin of a corner of those triangles
   std::vector<double> near_;          // per cluster: its slack and the largest of a cluster sharing a triangle with it
   std::array<Points, 2> cluster_motion_;  // per cluster, its mean motion since the build at the step's start and end (list_holds)
+  bool check_every_cluster_ = false;
+  bool held_ = false;                          // the last list_holds held, and nothing but ds has changed since
+  std::vector<std::uint8_t> cluster_changed_;  // per cluster (list_holds with `changed`)
+  std::vector<Index> changed_clusters_;
+  std::vector<std::uint8_t> cluster_past_;  // per changed cluster: a vertex past its margin
+  ListCheck list_holds_again(const Points& xs0, const Points& ds, const std::vector<Index>& changed);
   std::vector<Index> list_groups_;    // per triangle, its group at the build (overlapping_pairs pairs none within one)
   double list_edge_length_ = 0.0;     // the mean edge at the build
   int extensions_ = 0;                // extend_list's since the build

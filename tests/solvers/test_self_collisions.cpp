@@ -226,6 +226,58 @@ TEST(SelfCollisions, AListOutrunByAFewVerticesIsExtendedAndListsWhatAFreshOneWou
   EXPECT_GT(total.impacts + total.zone_nodes, 0);  // the bulge reached the lower box and was stopped
 }
 
+/// Both stages' stats, field by field.
+void expect_same_stats(const SelfCollisionStats& a, const SelfCollisionStats& b) {
+  EXPECT_EQ(a.candidates, b.candidates);
+  EXPECT_EQ(a.repulsions, b.repulsions);
+  EXPECT_EQ(a.impacts, b.impacts);
+  EXPECT_EQ(a.rounds, b.rounds);
+  EXPECT_EQ(a.zone_rounds, b.zone_rounds);
+  EXPECT_EQ(a.zone_nodes, b.zone_nodes);
+  EXPECT_EQ(a.list_builds, b.list_builds);
+  EXPECT_EQ(a.list_extensions, b.list_extensions);
+  EXPECT_EQ(a.listed, b.listed);
+}
+
+TEST(SelfCollisions, ListChecksAfterImpulsesMeasureTheMovedClustersOnlyWithTheSameResults) {
+  // After a round's impulses only the clusters holding a vertex they moved
+  // are measured again (their mean motions, their pairs with every other
+  // cluster, their vertices' drifts): the displacements and every count
+  // must be those of a stage that measures every cluster in every check.
+  // The bulge of the test above meets the lower box (impulse rounds over
+  // several steps with one list, extended and rebuilt between them); the
+  // bulge's vertices move every round. Fails if the changed clusters'
+  // means, pairs or drifts are not measured again (a list kept past its
+  // margins: pairs missed, other impulses).
+  const double gap = 0.1, step = 0.006;
+  const Body body = stacked_boxes(gap, 0.1, 8);
+  Index sinking = -1;
+  for (Index n = 0; n < body.num_nodes(); ++n) {
+    const Eigen::RowVector3d p = body.positions.row(n);
+    if (p.z() > 0.05 + 0.5 * gap && std::abs(p.x()) < 0.03 && std::abs(p.y()) < 0.03 &&
+        (sinking < 0 || p.z() < body.positions(sinking, 2)))
+      sinking = n;
+  }
+  ASSERT_GE(sinking, 0);
+  Points x = body.positions;
+  SelfCollisions changed_only, every;
+  every.set_check_every_cluster(true);
+  SelfCollisionStats total;
+  for (int k = 0; k < 76; ++k) {
+    SCOPED_TRACE(k);
+    Points d = Points::Zero(body.num_nodes(), 3);
+    d(sinking, 2) = -step;
+    Points every_d = d;
+    const SelfCollisionStats stats = changed_only.resolve(body, x, d, {}, {1e-4, 0.0, 8});
+    expect_same_stats(stats, every.resolve(body, x, every_d, {}, {1e-4, 0.0, 8}));
+    ASSERT_TRUE(d == every_d);
+    total += stats;
+    x += d;
+  }
+  EXPECT_GT(total.rounds, 0);  // checks after impulses (10 rounds here)
+  EXPECT_GT(total.list_extensions, 0);
+}
+
 /// Two lumpy spheres of radius 0.1 m, 0.35 m apart in one body, each spun
 /// about its centre by 40° (about a random axis) and thrown 0.13 m at the
 /// other in one step: they end 0.09 m apart, deep in each other. Rigid
