@@ -108,6 +108,12 @@ struct ScalarOps {
   static bool both(bool a, bool b) { return a && b; }
   static bool any(bool m) { return m; }
   static bool all(bool m) { return m; }
+  /// x with its significand's bits cleared: the power of two ≤ |x| for a
+  /// normal x (0 for a subnormal, ∞ for ∞ and NaN).
+  static double binade(double x) {
+    return __builtin_bit_cast(
+        double, __builtin_bit_cast(unsigned long long, x) & 0x7ff0000000000000ULL);  // NOLINT(google-runtime-int)
+  }
 };
 
 }  // namespace

@@ -74,6 +74,10 @@ struct VectorOps {
     for (int k = 0; k < kWidth; ++k) bits &= m[k];
     return bits != 0;
   }
+  /// ScalarOps::binade in every lane.
+  static R binade(R x) {
+    return reinterpret_cast<R>(reinterpret_cast<M>(x) & (M{} + 0x7ff0000000000000LL));
+  }
 };
 
 /// Two lane types as one: every operation is issued for both halves, two
@@ -104,6 +108,14 @@ template <class L> inline auto operator<(Two<L> a, double b) { return Two<declty
 template <class L> inline auto operator>(Two<L> a, double b) { return Two<decltype(a.lo > b)>{a.lo > b, a.hi > b}; }
 template <class L> inline auto operator>=(Two<L> a, double b) { return Two<decltype(a.lo >= b)>{a.lo >= b, a.hi >= b}; }
 template <class L> inline auto operator!=(Two<L> a, double b) { return Two<decltype(a.lo != b)>{a.lo != b, a.hi != b}; }
+template <class L>
+inline auto operator!=(Two<L> a, Two<L> b) {
+  return Two<decltype(a.lo != b.lo)>{a.lo != b.lo, a.hi != b.hi};
+}
+template <class L>
+inline auto operator==(Two<L> a, Two<L> b) {
+  return Two<decltype(a.lo == b.lo)>{a.lo == b.lo, a.hi == b.hi};
+}
 
 /// The lane operations of Ops on Two of its lane types.
 template <class Ops>
@@ -119,6 +131,7 @@ struct TwoOps {
   static M both(M a, M b) { return a & b; }
   static bool any(M m) { return Ops::any(m.lo) || Ops::any(m.hi); }
   static bool all(M m) { return Ops::all(m.lo) && Ops::all(m.hi); }
+  static R binade(R x) { return {Ops::binade(x.lo), Ops::binade(x.hi)}; }
 };
 
 using SvdOps = TwoOps<VectorOps>;  // (four registers measured slower: AVX2 spills)

@@ -24,11 +24,29 @@ inline void jacobi_rotate(Mat3<typename Ops::R>& A, Mat3<typename Ops::R>& V, ty
   using R = typename Ops::R;
   constexpr int r = 3 - p - q;
   const R apq = A(p, q);
-  const R tau = (A(q, q) - A(p, p)) / (2.0 * apq);
-  const R sign = Ops::select(tau >= 0.0, Ops::splat(1.0), Ops::splat(-1.0));
-  const R t = sign / (Ops::abs(tau) + Ops::sqrt(1.0 + tau * tau));
-  const R c = 1.0 / Ops::sqrt(1.0 + t * t);
-  const R s = t * c;
+  // t = tan θ = sign(τ) / (|τ| + √(1 + τ²)), τ = d / e, d = a_qq − a_pp,
+  // e = 2 a_pq: the smaller root of t² + 2τt − 1 = 0. With h = √(d² + e²),
+  // D = |d| + h and z = √(D² + e²) = √(2hD): t = sign(τ) |e| / D,
+  // c = 1/√(1 + t²) = D / z, s = t c = sign(τ) |e| / z, all three from the
+  // one reciprocal v = 1 / (D z) (t = sign(τ)|e| z v, c = D² v, s =
+  // sign(τ)|e| D v): two square roots and a division where the τ form
+  // takes three divisions and two roots, each waiting for the last. Every
+  // quantity is homogeneous of degree 0 in (d, e): a pair too small to
+  // square is scaled up by a power of two first, which changes no bit.
+  R d = A(q, q) - A(p, p), e = 2.0 * apq;
+  const R up = Ops::select(Ops::max(Ops::abs(d), Ops::abs(e)) < 0x1p-400, Ops::splat(0x1p600), Ops::splat(1.0));
+  d = d * up;
+  e = e * up;
+  const R h = Ops::sqrt(d * d + e * e);
+  const R D = Ops::abs(d) + h;
+  const R z = Ops::sqrt(2.0 * h * D);
+  const R v = 1.0 / (D * z);
+  // sign(τ): −1 where d and e have opposite signs, +1 where d = 0 (τ = ±0).
+  const R sign = Ops::select(Ops::both(d != 0.0, (d < 0.0) != (e < 0.0)), Ops::splat(-1.0), Ops::splat(1.0));
+  const R ae = sign * Ops::abs(e);
+  const R t = ae * z * v;
+  const R c = D * D * v;
+  const R s = ae * D * v;
   const R arp = A(r, p), arq = A(r, q);
   A(p, p) = Ops::select(rotate, A(p, p) - t * apq, A(p, p));
   A(q, q) = Ops::select(rotate, A(q, q) + t * apq, A(q, q));
@@ -48,7 +66,7 @@ inline void jacobi_rotate(Mat3<typename Ops::R>& A, Mat3<typename Ops::R>& V, ty
 template <class Ops, int p, int q>
 inline typename Ops::M off_diagonal_left(const Mat3<typename Ops::R>& A) {
   const auto apq = A(p, q);
-  return Ops::both(Ops::abs(apq) > kEpsilon * Ops::sqrt(Ops::abs(A(p, p))) * Ops::sqrt(Ops::abs(A(q, q))), apq != 0.0);
+  return Ops::both(apq * apq > (kEpsilon * kEpsilon) * Ops::abs(A(p, p) * A(q, q)), apq != 0.0);
 }
 
 template <class Ops, int p, int q>
@@ -76,11 +94,13 @@ inline void svd3_lanes(const Mat3<typename Ops::R>& F_in, Mat3<typename Ops::R>&
   using R = typename Ops::R;
   // Work on F / max|F_ij| so that FᵀF neither overflows nor underflows for
   // any finite F; σ is scaled back at the end.
-  R scale = Ops::abs(F_in.m[0]);
-  for (int k = 1; k < 9; ++k) scale = Ops::max(scale, Ops::abs(F_in.m[k]));
-  const typename Ops::M nonzero = scale > 0.0;
+  R largest = Ops::abs(F_in.m[0]);
+  for (int k = 1; k < 9; ++k) largest = Ops::max(largest, Ops::abs(F_in.m[k]));
+  const typename Ops::M nonzero = largest > 0.0;
+  const R scale = Ops::max(Ops::binade(largest), Ops::splat(kTiny));
+  const R inverse = Ops::select(largest == largest, 1.0 / scale, largest);
   Mat3<R> F;
-  for (int k = 0; k < 9; ++k) F.m[k] = F_in.m[k] / scale;
+  for (int k = 0; k < 9; ++k) F.m[k] = F_in.m[k] * inverse;
   Mat3<R> A;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) A(i, j) = dot3(F(0, i), F(1, i), F(2, i), F(0, j), F(1, j), F(2, j));
@@ -128,13 +148,15 @@ inline void svd3_lanes(const Mat3<typename Ops::R>& F_in, Mat3<typename Ops::R>&
   R u1[3], u2[3], u3[3];
   const R n1 = Ops::sqrt(dot3(B(0, 0), B(1, 0), B(2, 0), B(0, 0), B(1, 0), B(2, 0)));
   const typename Ops::M u1_defined = n1 > kTiny;
-  for (int k = 0; k < 3; ++k) u1[k] = Ops::select(u1_defined, B(k, 0) / n1, Ops::splat(k == 0 ? 1.0 : 0.0));
+  const R r1 = 1.0 / n1;
+  for (int k = 0; k < 3; ++k) u1[k] = Ops::select(u1_defined, B(k, 0) * r1, Ops::splat(k == 0 ? 1.0 : 0.0));
   const R d12 = dot3(u1[0], u1[1], u1[2], B(0, 1), B(1, 1), B(2, 1));
   for (int k = 0; k < 3; ++k) u2[k] = B(k, 1) - d12 * u1[k];
   const R n2 = Ops::sqrt(dot3(u2[0], u2[1], u2[2], u2[0], u2[1], u2[2]));
   const typename Ops::M u2_defined = n2 > kTiny;
+  const R r2 = 1.0 / n2;
   if (Ops::all(u2_defined)) {
-    for (auto& c : u2) c = c / n2;
+    for (auto& c : u2) c = c * r2;
   } else {
     // A unit vector orthogonal to u1: u1 × e_k with k the axis of u1's
     // smallest component (the first of equals), normalised.
@@ -152,7 +174,7 @@ inline void svd3_lanes(const Mat3<typename Ops::R>& F_in, Mat3<typename Ops::R>&
     const R nz = Ops::sqrt(z);
     for (int k = 0; k < 3; ++k) {
       const R orthogonal = Ops::select(z > 0.0, w[k] / nz, w[k]);
-      u2[k] = Ops::select(u2_defined, u2[k] / n2, orthogonal);
+      u2[k] = Ops::select(u2_defined, u2[k] * r2, orthogonal);
     }
   }
   cross3(u1, u2, u3);

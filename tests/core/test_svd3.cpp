@@ -36,6 +36,10 @@ std::vector<Eigen::Vector3d> hard_spectra() {
       {5, 1e-9, -1e-9},
       {1, 1 + 1e-15, 1 - 1e-15},
       {1e100, 1, 1e-100},
+      // Largest entries subnormal or near overflow: F's scale is a power
+      // of two, clamped to the least normal double.
+      {3e-310, 2e-310, 1e-310},
+      {1e300, 3e299, -1e299},
   };
 }
 
@@ -79,6 +83,24 @@ TEST(Svd3, RepeatedZeroAndInvertedSingularValues) {
     }
 }
 
+/// F = diag(1, B) with B a 2×2 block of order 1e-80: FᵀF's block is of
+/// order 1e-160, so its Jacobi rotation's d² + e² (d = a_qq − a_pp, e =
+/// 2 a_pq) lies far below the least normal double, where a subnormal keeps
+/// a dozen bits: the rotation is exact only if (d, e) is scaled up first.
+Eigen::Matrix3d tiny_block(double a, double b, double c, double d) {
+  Eigen::Matrix3d F = Eigen::Matrix3d::Zero();
+  F.bottomRightCorner<2, 2>() << a, b, c, d;
+  F *= 1e-80;
+  F(0, 0) = 1.0;
+  return F;
+}
+
+TEST(Svd3, PairsTooSmallToSquareStillRotateExactly) {
+  for (const Eigen::Matrix3d& F :
+       {tiny_block(1.0, 0.5, 0.3, 1.0), tiny_block(2.0, -0.7, 0.4, 0.5), tiny_block(1.0, 1.0, -1.0, 1.0)})
+    expect_valid(F, svd3(F));
+}
+
 TEST(Svd3, ExactCases) {
   const Svd3 identity = svd3(Eigen::Matrix3d::Identity());
   EXPECT_TRUE(test::matrices_near(identity.sigma, Eigen::Vector3d::Ones(), 0.0));
@@ -113,6 +135,8 @@ std::vector<Eigen::Matrix3d> hard_matrices() {
   out.emplace_back(Eigen::Matrix3d::Zero());
   out.emplace_back(Eigen::Vector3d(1, 1, -1).asDiagonal());
   out.emplace_back(Eigen::Vector3d(2, 0, 0).asDiagonal());
+  out.push_back(tiny_block(1.0, 0.5, 0.3, 1.0));
+  out.push_back(tiny_block(2.0, -0.7, 0.4, 0.5));
   Eigen::Matrix3d rank_one = Eigen::Matrix3d::Zero();
   rank_one.col(1) = Eigen::Vector3d(0, 0, 3);
   out.push_back(rank_one);
