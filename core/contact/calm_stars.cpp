@@ -340,6 +340,25 @@ void CalmStars::gradients(const Body& body, const Points& x0, const Points& d,
   });
 }
 
+void CalmStars::gradients(const Body& body, const Points& x0, const Points& d, const std::vector<Index>& elements) {
+  // As the pass over every element computes them: x1 = x0 + d row by row.
+  for_each_index(
+      static_cast<Index>(elements.size()),
+      [&](Index i) {
+        const Index e = elements[at(i)];
+        const Index n0 = body.tets(e, 0);
+        const Eigen::RowVector3d p0 = x0.row(n0) + d.row(n0);
+        Eigen::Matrix3d D1;
+        for (int k = 1; k < 4; ++k) {
+          const Index n = body.tets(e, k);
+          D1.col(k - 1) = (Eigen::RowVector3d(x0.row(n) + d.row(n)) - p0).transpose();
+        }
+        F0_[at(e)] = edge_matrix(body.tets, x0, e) * rest_inverse_[at(e)];
+        F1_[at(e)] = D1 * rest_inverse_[at(e)];
+      },
+      64);
+}
+
 double CalmStars::spread(const Body& body, Index n, double multiplier, double threshold) const {
   (void)body;
   const Index first = incidence_.offsets[at(n)];
@@ -426,44 +445,28 @@ bool CalmStars::returned(Index a, Index b) const {
 
 std::vector<std::array<Index, 2>> CalmStars::newly_unsafe(const Body& body, const Points& x0, const Points& d,
                                                           const std::vector<std::uint8_t>* moved,
-                                                          const std::vector<Box3>& boxes) {
+                                                          const std::vector<Box3>& boxes,
+                                                          const std::vector<Index>* moved_elements) {
   if (grouped_.empty()) return {};
   const Index ne = body.num_elements();
-  std::vector<std::uint8_t> elements(at(ne), moved ? 0 : 1);
-  if (moved)
-    for_each_index(ne, [&](Index e) {
-      for (int k = 0; k < 4; ++k) elements[at(e)] |= (*moved)[at(body.tets(e, k))];
-    });
-  gradients(body, x0, d, &elements);
-  std::vector<std::uint8_t> touched(grouped_.size(), 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grouped_.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const Index n = grouped_[i];
-      if (full_[at(n)]) continue;
-      bool star_moved = !moved;
-      for (Index c = incidence_.offsets[at(n)]; c < incidence_.offsets[at(n) + 1] && !star_moved; ++c)
-        star_moved = elements[at(incidence_.corners[at(c)] / 4)] != 0;
-      if (!star_moved) continue;
-      // Tested below as κ × kRatio and κ × the next near pair's ratio
-      // (the largest not yet returned) against kUnsafe: with κ under both,
-      // nothing is returned.
-      const Index next = near_offsets_[at(n)] + near_listed_[at(n)];
-      const double largest =
-          next < near_offsets_[at(n) + 1] ? std::max(kRatio, near_ratio_[at(near_members_[at(next)])]) : kRatio;
-      kappa_[at(n)] = spread(body, n, largest, kUnsafe);
-      touched[i] = 1;
-    }
-  });
+  // Star n's κ this step, tested below as κ × kRatio and κ × the next near
+  // pair's ratio (the largest not yet returned) against kUnsafe: with κ
+  // under both, nothing is returned.
+  auto measure = [&](Index n) {
+    const Index next = near_offsets_[at(n)] + near_listed_[at(n)];
+    const double largest =
+        next < near_offsets_[at(n) + 1] ? std::max(kRatio, near_ratio_[at(near_members_[at(next)])]) : kRatio;
+    kappa_[at(n)] = spread(body, n, largest, kUnsafe);
+  };
   std::vector<std::array<Index, 2>> out;
-  for (std::size_t i = 0; i < grouped_.size(); ++i) {
-    if (!touched[i]) continue;
-    const Index n = grouped_[i];
+  auto take = [&](Index n) {  // the pairs star n's κ makes unsafe, in one order
     const double kappa = kappa_[at(n)];
     const Index near_begin = near_offsets_[at(n)], near_end = near_offsets_[at(n) + 1];
     if (!(kappa * kRatio < kUnsafe)) {  // every pair of the group
       full_[at(n)] = 1;
       std::vector<std::array<Index, 2>> listed;
-      for (Index k = near_begin; k < near_begin + near_listed_[at(n)]; ++k) listed.push_back(near_[at(near_members_[at(k)])]);
+      for (Index k = near_begin; k < near_begin + near_listed_[at(n)]; ++k)
+        listed.push_back(near_[at(near_members_[at(k)])]);
       std::sort(listed.begin(), listed.end());
       const std::vector<Index> own = members(n);
       std::vector<Box3> own_boxes;
@@ -473,7 +476,7 @@ std::vector<std::array<Index, 2>> CalmStars::newly_unsafe(const Body& body, cons
         const std::array<Index, 2> pair{own[at(p[0])], own[at(p[1])]};
         if (!std::binary_search(listed.begin(), listed.end(), pair)) out.push_back(pair);
       }
-      continue;
+      return;
     }
     // Below that, only near pairs can touch: those whose κ × ratio reaches 1.
     Index& k = near_listed_[at(n)];
@@ -481,7 +484,53 @@ std::vector<std::array<Index, 2>> CalmStars::newly_unsafe(const Body& body, cons
       out.push_back(near_[at(near_members_[at(near_begin + k)])]);
       ++k;
     }
+  };
+  if (moved && moved_elements) {
+    // The stars holding a moved element are those of its nodes: the grouped
+    // ones not yet full, ascending (grouped_'s order).
+    gradients(body, x0, d, *moved_elements);
+    const Index nn = body.num_nodes();
+    if (star_stamp_.size() != at(nn)) {
+      star_stamp_.assign(at(nn), 0);
+      star_call_ = 0;
+    }
+    ++star_call_;
+    std::vector<Index> stars;
+    for (const Index e : *moved_elements)
+      for (int k = 0; k < 4; ++k) {
+        const Index n = body.tets(e, k);
+        if (star_stamp_[at(n)] == star_call_) continue;
+        star_stamp_[at(n)] = star_call_;
+        if (offsets_[at(n) + 1] > offsets_[at(n)] && !full_[at(n)]) stars.push_back(n);
+      }
+    std::sort(stars.begin(), stars.end());
+    for_each_index(
+        static_cast<Index>(stars.size()), [&](Index i) { measure(stars[at(i)]); }, 16);
+    for (const Index n : stars) take(n);
+    return out;
   }
+  std::vector<std::uint8_t> elements(at(ne), moved ? 0 : 1);
+  if (moved)
+    for_each_index(ne, [&](Index e) {
+      for (int k = 0; k < 4; ++k) elements[at(e)] |= (*moved)[at(body.tets(e, k))];
+    });
+  gradients(body, x0, d, &elements);
+  std::vector<std::uint8_t> touched(grouped_.size(), 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grouped_.size(), 16),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        const Index n = grouped_[i];
+                        if (full_[at(n)]) continue;
+                        bool star_moved = !moved;
+                        for (Index c = incidence_.offsets[at(n)]; c < incidence_.offsets[at(n) + 1] && !star_moved; ++c)
+                          star_moved = elements[at(incidence_.corners[at(c)] / 4)] != 0;
+                        if (!star_moved) continue;
+                        measure(n);
+                        touched[i] = 1;
+                      }
+                    });
+  for (std::size_t i = 0; i < grouped_.size(); ++i)
+    if (touched[i]) take(grouped_[i]);
   return out;
 }
 

@@ -61,9 +61,11 @@ class CalmStars {
   /// whose `boxes` (per triangle) overlap; below that, only its near pairs
   /// whose κ × ratio reaches 1 (the others cannot touch). With `moved` (per
   /// node), only stars with a moved node are measured again.
+  /// With `moved_elements` too (the elements with a moved node, each once),
+  /// only those elements' stars are looked at: the same result.
   std::vector<std::array<Index, 2>> newly_unsafe(const Body& body, const Points& x0, const Points& d,
-                                                 const std::vector<std::uint8_t>* moved,
-                                                 const std::vector<Box3>& boxes);
+                                                 const std::vector<std::uint8_t>* moved, const std::vector<Box3>& boxes,
+                                                 const std::vector<Index>* moved_elements = nullptr);
 
   /// Whether triangles a and b lie in one group whose pairs of them have
   /// been returned since the last assign_groups (the group's in full, or
@@ -87,6 +89,10 @@ class CalmStars {
 
  private:
   void gradients(const Body& body, const Points& x0, const Points& d, const std::vector<std::uint8_t>* elements);
+  /// The same for the listed elements only.
+  void gradients(const Body& body, const Points& x0, const Points& d, const std::vector<Index>& elements);
+  std::vector<Index> star_stamp_;  // per node: the last newly_unsafe call that took its star (moved_elements)
+  Index star_call_ = 0;
   /// Star n's κ this step, or a bound above it when that bound passes the
   /// caller's test κ × multiplier < threshold (the decisions are then the
   /// same as with κ; spread_of in calm_stars.cpp).

@@ -316,7 +316,7 @@ SelfCollisions::ListCheck SelfCollisions::list_holds(const Points& xs0, const Po
   // allowance of each other. Both are convex in t and the motions linear
   // over the step: the two ends are enough.
   const bool held = std::exchange(held_, false);
-  if (changed && held && !check_every_cluster_) return list_holds_again(xs0, ds, *changed);
+  if (changed && held && recheck_ != Recheck::everything) return list_holds_again(xs0, ds, *changed);
   const auto nv = static_cast<Index>(xs0.rows()); const Index nc = clusters_;
   std::array<Points, 2>& mean = cluster_motion_;
   mean = {Points::Zero(nc, 3), Points::Zero(nc, 3)};
@@ -852,8 +852,9 @@ void SelfCollisions::expand(const Body& body, Index A0, Index B0, const Points& 
 }
 
 bool SelfCollisions::list_unsafe_groups(const Body& body, const Points& x0, const Points& d,
-                                        const std::vector<std::uint8_t>* moved, double thickness) {
-  const auto unsafe = stars_.newly_unsafe(body, x0, d, moved, triangle_boxes_);
+                                        const std::vector<std::uint8_t>* moved, double thickness,
+                                        const std::vector<Index>* moved_elements) {
+  const auto unsafe = stars_.newly_unsafe(body, x0, d, moved, triangle_boxes_, moved_elements);
   if (unsafe.empty()) return false;
   std::vector<Pair> added;
   // Measured where the list was built, as the list's own pairs are.
@@ -885,6 +886,26 @@ bool SelfCollisions::keep_pair(PairKind kind, const std::array<Index, 4>& v, con
   return distance <= kReported * thickness + reach(kind, v, same_cluster(v) ? margin_ : reach_margin_);
 }
 
+bool SelfCollisions::index_elements(const Body& body) {
+  const Index ne = body.num_elements(), nv = body.embedding.num_vertices();
+  const NodeIncidence& incidence = body.incidence;
+  if (incidence.offsets.size() != at(body.num_nodes()) + 1 || incidence.corners.size() != 4 * at(ne)) return false;
+  if (element_vertex_offsets_.size() != at(ne) + 1 || !same_bits(indexed_parents_, body.embedding.parent)) {
+    indexed_parents_ = body.embedding.parent;
+    element_vertex_offsets_.assign(at(ne) + 1, 0);
+    for (Index v = 0; v < nv; ++v) ++element_vertex_offsets_[at(body.embedding.parent[at(v)]) + 1];
+    for (Index e = 0; e < ne; ++e) element_vertex_offsets_[at(e) + 1] += element_vertex_offsets_[at(e)];
+    element_vertices_.resize(at(nv));
+    std::vector<Index> next(element_vertex_offsets_.begin(), element_vertex_offsets_.end() - 1);
+    for (Index v = 0; v < nv; ++v) element_vertices_[at(next[at(body.embedding.parent[at(v)])]++)] = v;
+  }
+  if (element_stamp_.size() != at(ne)) {
+    element_stamp_.assign(at(ne), 0);
+    stamp_ = 0;
+  }
+  return true;
+}
+
 void SelfCollisions::drop_local_pairs() {
   candidates_.resize(list_size_);
   clearance_.resize(list_size_);
@@ -893,10 +914,22 @@ void SelfCollisions::drop_local_pairs() {
 }
 
 void SelfCollisions::update_orientations(const Body& body, const Points& x0, const Points& d,
-                                         const std::vector<std::uint8_t>* moved) {
+                                         const std::vector<std::uint8_t>* moved,
+                                         const std::vector<Index>* moved_elements) {
   if (affine_.size() != at(body.num_elements())) {
     affine_.resize(at(body.num_elements()));
     moved = nullptr;
+    moved_elements = nullptr;
+  }
+  if (moved && moved_elements) {  // the elements with a moved node: the others are as they were
+    for_each_index(
+        static_cast<Index>(moved_elements->size()),
+        [&](Index i) {
+          const Index e = (*moved_elements)[at(i)];
+          affine_[at(e)] = stays_positive(body, x0, d, e) ? 1 : 0;
+        },
+        64);
+    return;
   }
   tbb::parallel_for(tbb::blocked_range<Index>(0, body.num_elements(), kParallelGrain),
                     [&](const tbb::blocked_range<Index>& r) {
@@ -1203,6 +1236,10 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   // `moved` (per node) flags the nodes moved since the last detection,
   // `changed` (ascending) the surface vertices of their elements, `only`'s
   // flagged ones: only their displacements are computed again.
+  // The elements with a node moved since the last detection, when they are
+  // few (flag_moved below).
+  std::vector<Index> moved_elements;
+  bool few_moved = false;
   auto redetect = [&](const std::vector<Index>* zone, const std::vector<std::uint8_t>* only,
                       const std::vector<std::uint8_t>* moved, const std::vector<Index>* changed) {
     if (changed)
@@ -1214,8 +1251,9 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
     // positive, a star no longer calm (their pairs are measured from now
     // on; an element's vertices are among the flagged ones, as a node of it
     // moved).
-    update_orientations(body, x0, d, rebuilt ? nullptr : moved);
-    const bool added = list_unsafe_groups(body, x0, d, rebuilt ? nullptr : moved, thickness);
+    const std::vector<Index>* elements = few_moved && !rebuilt ? &moved_elements : nullptr;
+    update_orientations(body, x0, d, rebuilt ? nullptr : moved, elements);
+    const bool added = list_unsafe_groups(body, x0, d, rebuilt ? nullptr : moved, thickness, elements);
     add_local_pairs(body, xs0, ds, thickness);
     return detect(body, xs0, ds, thickness, zone, rebuilt || added ? nullptr : only, changed, stats);
   };
@@ -1223,11 +1261,51 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
   // node that moved since `d_before`, and those of `impacts` (an impulse
   // that could not act leaves its pair): `moved` per node, `again` per
   // surface vertex, `flagged` its vertices, ascending.
+  // `again` is 1 exactly at `flagged`'s vertices. With few nodes moved (a
+  // round's impulses: a few dozen), their elements (`moved_elements`) and
+  // those elements' vertices are found through the incidence and an index
+  // of each element's vertices, and only the last flagged ones cleared;
+  // otherwise every vertex is looked at. The same flags either way.
   std::vector<std::uint8_t> moved(at(body.num_nodes())), again(at(body.embedding.num_vertices()));
   std::vector<Index> flagged;
   auto flag_moved = [&](const Points& d_before, const std::vector<Impact>& impacts_before) {
-    for_each_index(body.num_nodes(), [&](Index n) { moved[at(n)] = d.row(n) != d_before.row(n) ? 1 : 0; });
-    for_each_index(body.embedding.num_vertices(), [&](Index v) {
+    const Index nn = body.num_nodes(), nv = body.embedding.num_vertices();
+    for_each_index(nn, [&](Index n) { moved[at(n)] = d.row(n) != d_before.row(n) ? 1 : 0; });
+    moved_nodes_.clear();
+    for (Index n = 0; n < nn; ++n)
+      if (moved[at(n)]) moved_nodes_.push_back(n);
+    few_moved = (recheck_ == Recheck::what_moved || (recheck_ == Recheck::what_moved_when_few &&
+                                                     static_cast<Index>(moved_nodes_.size()) * kFewMoved <= nn)) &&
+                index_elements(body);
+    if (few_moved) {
+      ++stamp_;
+      moved_elements.clear();
+      for (const Index n : moved_nodes_)
+        for (Index c = body.incidence.offsets[at(n)]; c < body.incidence.offsets[at(n) + 1]; ++c) {
+          const Index e = body.incidence.corners[at(c)] / 4;
+          if (element_stamp_[at(e)] != stamp_) {
+            element_stamp_[at(e)] = stamp_;
+            moved_elements.push_back(e);
+          }
+        }
+      for (const Index v : flagged) again[at(v)] = 0;
+      vertex_bits_.assign((at(nv) + 63) / 64, 0);
+      auto flag = [&](Index v) {
+        again[at(v)] = 1;
+        vertex_bits_[at(v) / 64] |= std::uint64_t{1} << (at(v) % 64);
+      };
+      for (const Index e : moved_elements)
+        for (Index i = element_vertex_offsets_[at(e)]; i < element_vertex_offsets_[at(e) + 1]; ++i)
+          flag(element_vertices_[at(i)]);
+      for (const Impact& impact : impacts_before)
+        for (const Index v : candidates_[impact.pair].vertices) flag(v);
+      flagged.clear();
+      for (std::size_t word = 0; word < vertex_bits_.size(); ++word)
+        for (std::uint64_t bits = vertex_bits_[word]; bits != 0; bits &= bits - 1)
+          flagged.push_back(static_cast<Index>(64 * word + static_cast<std::size_t>(std::countr_zero(bits))));
+      return;
+    }
+    for_each_index(nv, [&](Index v) {
       const Index e = body.embedding.parent[at(v)];
       again[at(v)] = moved[at(body.tets(e, 0))] | moved[at(body.tets(e, 1))] | moved[at(body.tets(e, 2))] |
                      moved[at(body.tets(e, 3))];
@@ -1235,7 +1313,7 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
     for (const Impact& impact : impacts_before)
       for (const Index v : candidates_[impact.pair].vertices) again[at(v)] = 1;
     flagged.clear();
-    for (Index v = 0; v < body.embedding.num_vertices(); ++v)
+    for (Index v = 0; v < nv; ++v)
       if (again[at(v)]) flagged.push_back(v);
   };
   if (stats.repulsions > 0) {

@@ -93,11 +93,14 @@ class SelfCollisions {
   SelfCollisionStats resolve_step(Body& body, const Points& x0, double dt, const std::vector<std::uint8_t>& fixed,
                                   const SelfCollisionParameters& parameters);
 
-  /// Whether the list's checks after a round's impulses measure every
-  /// cluster (true) or only those holding a vertex the impulses moved
-  /// (false, the default): the same results, bit for bit, either way
-  /// (tests compare them).
-  void set_check_every_cluster(bool every) { check_every_cluster_ = every; }
+  /// What the checks after a round's impulses look at again: everything,
+  /// or only what the impulses moved (the list's clusters holding a moved
+  /// vertex; the surface vertices, elements and calm stars of the moved
+  /// nodes), or the latter when at most one node in kFewMoved moved (the
+  /// default: with more, a pass over all costs less). The same results,
+  /// bit for bit, every way (tests compare them).
+  enum class Recheck { everything, what_moved, what_moved_when_few };
+  void set_recheck(Recheck recheck) { recheck_ = recheck; }
 
  private:
   struct Pair {
@@ -129,8 +132,10 @@ class SelfCollisions {
   /// (CalmStars) for the rest of the list's life. With `moved` (per node),
   /// only stars with a moved node are measured again. Returns whether any
   /// pair was added (the element pairs add_local_pairs appended are dropped).
-  bool list_unsafe_groups(const Body& body, const Points& x0, const Points& d,
-                          const std::vector<std::uint8_t>* moved, double thickness);
+  /// With `moved_elements` too (the elements with a moved node), only those
+  /// are looked at.
+  bool list_unsafe_groups(const Body& body, const Points& x0, const Points& d, const std::vector<std::uint8_t>* moved,
+                          double thickness, const std::vector<Index>* moved_elements = nullptr);
   /// Whether the pair keeps its place on the list (its body's own pairs
   /// resolved, and within reach of the thickness); `distance` is its gap now.
   bool keep_pair(ccd::PairKind kind, const std::array<Index, 4>& v, const Points& xs0, double thickness,
@@ -147,9 +152,14 @@ class SelfCollisions {
   }
   /// Per element, whether it stays positively oriented while the nodes move
   /// from x0 to x0 + d.
-  /// With `moved` (per node), only elements with a moved node.
+  /// With `moved` (per node), only elements with a moved node (with
+  /// `moved_elements`, those listed: all of them).
   void update_orientations(const Body& body, const Points& x0, const Points& d,
-                           const std::vector<std::uint8_t>* moved = nullptr);
+                           const std::vector<std::uint8_t>* moved = nullptr,
+                           const std::vector<Index>* moved_elements = nullptr);
+  /// Builds the index of each element's surface vertices if the embedding
+  /// changed; false (no index) if the body has no node incidence.
+  bool index_elements(const Body& body);
   /// Appends the pairs within each element that does not stay positively
   /// oriented (and has none listed yet): the list leaves them out. Measured
   /// at the step's start xs0, with the surface moving by ds over the step.
@@ -226,6 +236,16 @@ class SelfCollisions {
   // cannot cross (the list leaves them out; add_local_pairs appends those
   // of the other elements after the list's first list_size_ pairs).
   std::vector<std::uint8_t> affine_;
+  // A round's moved nodes (ascending), and for finding their elements'
+  // surface vertices: each element's vertices (ascending; for the
+  // embedding's parents `indexed_parents_`), a stamp per element, a bit
+  // per vertex.
+  static constexpr Index kFewMoved = 16;  // at most one node in this many: through the index
+  std::vector<Index> moved_nodes_;
+  std::vector<Index> element_vertex_offsets_, element_vertices_, indexed_parents_;
+  std::vector<std::uint32_t> element_stamp_;
+  std::uint32_t stamp_ = 0;
+  std::vector<std::uint64_t> vertex_bits_;
   std::vector<std::uint8_t> local_;  // per element: its pairs appended this step
   std::size_t list_size_ = 0;
   std::vector<Index> list_parents_;  // each vertex's element when the list was built
@@ -298,7 +318,7 @@ class SelfCollisions {
   std::vector<double> largest_;       // per cluster: the largest margin of a corner of those triangles
   std::vector<double> near_;          // per cluster: its slack and the largest of a cluster sharing a triangle with it
   std::array<Points, 2> cluster_motion_;  // per cluster, its mean motion since the build at the step's start and end (list_holds)
-  bool check_every_cluster_ = false;
+  Recheck recheck_ = Recheck::what_moved_when_few;
   bool held_ = false;                          // the last list_holds held, and nothing but ds has changed since
   std::vector<std::uint8_t> cluster_changed_;  // per cluster (list_holds with `changed`)
   std::vector<Index> changed_clusters_;

@@ -226,58 +226,6 @@ TEST(SelfCollisions, AListOutrunByAFewVerticesIsExtendedAndListsWhatAFreshOneWou
   EXPECT_GT(total.impacts + total.zone_nodes, 0);  // the bulge reached the lower box and was stopped
 }
 
-/// Both stages' stats, field by field.
-void expect_same_stats(const SelfCollisionStats& a, const SelfCollisionStats& b) {
-  EXPECT_EQ(a.candidates, b.candidates);
-  EXPECT_EQ(a.repulsions, b.repulsions);
-  EXPECT_EQ(a.impacts, b.impacts);
-  EXPECT_EQ(a.rounds, b.rounds);
-  EXPECT_EQ(a.zone_rounds, b.zone_rounds);
-  EXPECT_EQ(a.zone_nodes, b.zone_nodes);
-  EXPECT_EQ(a.list_builds, b.list_builds);
-  EXPECT_EQ(a.list_extensions, b.list_extensions);
-  EXPECT_EQ(a.listed, b.listed);
-}
-
-TEST(SelfCollisions, ListChecksAfterImpulsesMeasureTheMovedClustersOnlyWithTheSameResults) {
-  // After a round's impulses only the clusters holding a vertex they moved
-  // are measured again (their mean motions, their pairs with every other
-  // cluster, their vertices' drifts): the displacements and every count
-  // must be those of a stage that measures every cluster in every check.
-  // The bulge of the test above meets the lower box (impulse rounds over
-  // several steps with one list, extended and rebuilt between them); the
-  // bulge's vertices move every round. Fails if the changed clusters'
-  // means, pairs or drifts are not measured again (a list kept past its
-  // margins: pairs missed, other impulses).
-  const double gap = 0.1, step = 0.006;
-  const Body body = stacked_boxes(gap, 0.1, 8);
-  Index sinking = -1;
-  for (Index n = 0; n < body.num_nodes(); ++n) {
-    const Eigen::RowVector3d p = body.positions.row(n);
-    if (p.z() > 0.05 + 0.5 * gap && std::abs(p.x()) < 0.03 && std::abs(p.y()) < 0.03 &&
-        (sinking < 0 || p.z() < body.positions(sinking, 2)))
-      sinking = n;
-  }
-  ASSERT_GE(sinking, 0);
-  Points x = body.positions;
-  SelfCollisions changed_only, every;
-  every.set_check_every_cluster(true);
-  SelfCollisionStats total;
-  for (int k = 0; k < 76; ++k) {
-    SCOPED_TRACE(k);
-    Points d = Points::Zero(body.num_nodes(), 3);
-    d(sinking, 2) = -step;
-    Points every_d = d;
-    const SelfCollisionStats stats = changed_only.resolve(body, x, d, {}, {1e-4, 0.0, 8});
-    expect_same_stats(stats, every.resolve(body, x, every_d, {}, {1e-4, 0.0, 8}));
-    ASSERT_TRUE(d == every_d);
-    total += stats;
-    x += d;
-  }
-  EXPECT_GT(total.rounds, 0);  // checks after impulses (10 rounds here)
-  EXPECT_GT(total.list_extensions, 0);
-}
-
 /// Two lumpy spheres of radius 0.1 m, 0.35 m apart in one body, each spun
 /// about its centre by 40° (about a random axis) and thrown 0.13 m at the
 /// other in one step: they end 0.09 m apart, deep in each other. Rigid
@@ -693,6 +641,60 @@ double exact_pair_ratio(const Body& body, const Points& rest, Index a, Index b) 
   return ratio;
 }
 
+TEST(CalmStars, StarsFoundFromTheMovedElementsListWhatThePassOverAllStarsLists) {
+  // Two boxes 4 mm apart (facing sheets with near pairs in shared stars),
+  // grouped on a calm step; then rounds that stir a few nodes each, more
+  // every round, as impulses do. newly_unsafe given the moved elements
+  // looks only at their stars: each round must return the pairs, in the
+  // order, that the pass over every grouped star returns (and leave the
+  // same state for the next round). Fails if a moved element's star is
+  // missed, a full group is taken again, or its pairs are not taken.
+  const Body body = stacked_boxes(0.004);
+  const Index nt = static_cast<Index>(body.surface_triangles.rows()), nn = body.num_nodes();
+  std::vector<Index> element_of(at(nt));
+  for (Index t = 0; t < nt; ++t) {
+    const Index e = body.embedding.parent[at(body.surface_triangles(t, 0))];
+    element_of[at(t)] = body.embedding.parent[at(body.surface_triangles(t, 1))] == e &&
+                                body.embedding.parent[at(body.surface_triangles(t, 2))] == e
+                            ? e
+                            : -1;
+  }
+  const Points x0 = body.positions;
+  Points d = -0.02 * (x0.rowwise() - x0.colwise().mean());
+  CalmStars all;
+  all.update_mesh(body);
+  all.update_surface(body, element_of);
+  all.assign_groups(body, x0, d);
+  CalmStars moved_only = all;
+  const Points xs = body.embedding.surface_positions(body.tets, x0);
+  std::vector<Box3> boxes(at(nt));
+  for (Index t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k) boxes[at(t)].extend(Eigen::Vector3d(xs.row(body.surface_triangles(t, k)).transpose()));
+  std::mt19937 random(11);
+  std::uniform_int_distribution<Index> node(0, nn - 1);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::size_t returned = 0;
+  for (int round = 0; round < 200; ++round) {
+    SCOPED_TRACE(round);
+    std::vector<std::uint8_t> moved(at(nn), 0);
+    for (int k = 0; k < 3; ++k) {
+      const Index n = node(random);
+      moved[at(n)] = 1;
+      for (int i = 0; i < 3; ++i) d(n, i) += 0.0002 * (1 + round / 20) * unit(random);
+    }
+    std::vector<Index> elements;
+    for (Index e = 0; e < body.num_elements(); ++e)
+      if (moved[at(body.tets(e, 0))] || moved[at(body.tets(e, 1))] || moved[at(body.tets(e, 2))] ||
+          moved[at(body.tets(e, 3))])
+        elements.push_back(e);
+    std::reverse(elements.begin(), elements.end());  // any order
+    const auto expected = all.newly_unsafe(body, x0, d, &moved, boxes);
+    ASSERT_EQ(moved_only.newly_unsafe(body, x0, d, &moved, boxes, &elements), expected);
+    returned += expected.size();
+  }
+  EXPECT_GT(returned, 0u);
+}
+
 TEST(CalmStars, TheNearPairsAreExactlyThoseWithAPrimitivePairAboveTheRatio) {
   // Every pair of triangles that can join one group (a candidate star in
   // common, not both within one element), measured in full: the near
@@ -794,6 +796,106 @@ TEST(SelfCollisions, AShortStepSetsNoFasterVelocitiesThanAFullOne) {
   EXPECT_GT(full, 0.0);
   for (const double dt : {1e-4, 1e-6, 1e-9}) EXPECT_NEAR(fastest(dt, reference), full, 1e-6 * full) << "Δt = " << dt;
   EXPECT_NEAR(fastest(1e-6, 0.0), 1000.0 * full, 1e-6 * full * 1000.0);  // unscaled: 1000× faster
+}
+
+/// Both stages' stats, field by field.
+void expect_same_stats(const SelfCollisionStats& a, const SelfCollisionStats& b) {
+  EXPECT_EQ(a.candidates, b.candidates);
+  EXPECT_EQ(a.repulsions, b.repulsions);
+  EXPECT_EQ(a.impacts, b.impacts);
+  EXPECT_EQ(a.rounds, b.rounds);
+  EXPECT_EQ(a.zone_rounds, b.zone_rounds);
+  EXPECT_EQ(a.zone_nodes, b.zone_nodes);
+  EXPECT_EQ(a.list_builds, b.list_builds);
+  EXPECT_EQ(a.list_extensions, b.list_extensions);
+  EXPECT_EQ(a.listed, b.listed);
+}
+
+/// Two stages, one looking again at only what a round's impulses moved
+/// (whatever their number), the other at everything, resolving the same
+/// steps one after another.
+struct Rechecks {
+  SelfCollisions what_moved, everything;
+  SelfCollisionStats total;
+  Rechecks() {
+    what_moved.set_recheck(SelfCollisions::Recheck::what_moved);
+    everything.set_recheck(SelfCollisions::Recheck::everything);
+  }
+  /// Resolves d (from x0) with both: the same displacements and counts.
+  void step(const Body& body, const Points& x0, Points& d, const SelfCollisionParameters& parameters) {
+    Points other = d;
+    const SelfCollisionStats stats = what_moved.resolve(body, x0, d, {}, parameters);
+    expect_same_stats(stats, everything.resolve(body, x0, other, {}, parameters));
+    ASSERT_TRUE(d == other);
+    total += stats;
+  }
+};
+
+TEST(SelfCollisions, ChecksAfterImpulsesLookOnlyAtWhatMovedWithTheSameResults) {
+  // After a round's impulses only what they moved is looked at again: the
+  // list's clusters holding a moved vertex (their mean motions, their pairs
+  // with every other cluster, their vertices' drifts), and the surface
+  // vertices, elements and calm stars of the moved nodes (found through the
+  // incidence and an index of each element's vertices). The displacements
+  // and every count must be those of a stage that looks at everything.
+  // Fails if the changed clusters' means, pairs or drifts are not measured
+  // again (a list kept past its margins: pairs missed, other impulses), if
+  // an impact's vertices are not flagged, or if a moved node's elements'
+  // orientations or stars are not measured again.
+  {
+    SCOPED_TRACE("a bulge meeting a box: one list over many steps, extended and rebuilt");
+    const double gap = 0.1, step = 0.006;
+    const Body body = stacked_boxes(gap, 0.1, 8);
+    Index sinking = -1;
+    for (Index n = 0; n < body.num_nodes(); ++n) {
+      const Eigen::RowVector3d p = body.positions.row(n);
+      if (p.z() > 0.05 + 0.5 * gap && std::abs(p.x()) < 0.03 && std::abs(p.y()) < 0.03 &&
+          (sinking < 0 || p.z() < body.positions(sinking, 2)))
+        sinking = n;
+    }
+    ASSERT_GE(sinking, 0);
+    Points x = body.positions;
+    Rechecks both;
+    for (int k = 0; k < 76; ++k) {
+      SCOPED_TRACE(k);
+      Points d = Points::Zero(body.num_nodes(), 3);
+      d(sinking, 2) = -step;
+      both.step(body, x, d, {1e-4, 0.0, 8});
+      x += d;
+    }
+    EXPECT_GT(both.total.rounds, 0);
+    EXPECT_GT(both.total.list_extensions, 0);
+  }
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    SCOPED_TRACE(fmt::format("spun spheres thrown together, seed {}", seed));
+    Throw c = spun_spheres(seed);
+    Rechecks both;
+    both.step(c.body, c.x0, c.d, {1e-4, 0.3, 8});
+    EXPECT_GT(both.total.rounds, 1);
+  }
+  for (const auto& [gap, thickness] : {std::pair{1e-3, 1e-4}, std::pair{1e-4, 1e-5}}) {
+    SCOPED_TRACE(fmt::format("sheets in an element flattened mid-step, {} m apart", gap));
+    FlattenedSheets c(gap);
+    Rechecks both;
+    both.step(c.body, c.x0, c.d, {thickness, 0.0, 8});
+    EXPECT_GT(both.total.impacts, 0);
+  }
+  {
+    SCOPED_TRACE("a calm ball, then stirred: stars stop being calm");
+    ShrunkBall b = shrunk_ball(0.1);
+    Rechecks both;
+    Points d = b.d;
+    both.step(b.body, b.x0, d, {1e-4, 0.0, 8});
+    std::mt19937 random(5);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    for (int k = 0; k < 3; ++k) {
+      Points x = b.x0 + d;
+      d = b.d;
+      for (Index n = 0; n < b.body.num_nodes(); ++n)
+        for (int i = 0; i < 3; ++i) d(n, i) += 0.003 * unit(random);
+      both.step(b.body, x, d, {2e-3, 0.0, 8});
+    }
+  }
 }
 
 TEST(SelfCollisions, SameBitsOnOneAndTwoThreads) {
