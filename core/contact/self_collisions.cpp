@@ -338,12 +338,8 @@ SelfCollisions::ListCheck SelfCollisions::list_holds(const Points& xs0, const Po
   const bool parted = any_index(
       nc,
       [&](Index a) {  // rows of cluster pairs in parallel: a yes or no
-        for (Index b = a + 1; b < nc; ++b) {
-          const double allowed = allowance_[at(a * nc + b)];
-          if (!((mean[0].row(a) - mean[0].row(b)).cwiseAbs().maxCoeff() <= allowed &&
-                (mean[1].row(a) - mean[1].row(b)).cwiseAbs().maxCoeff() <= allowed))
-            return true;
-        }
+        for (Index b = a + 1; b < nc; ++b)
+          if (!clusters_within(a, b)) return true;
         return false;
       },
       16);
@@ -353,16 +349,28 @@ SelfCollisions::ListCheck SelfCollisions::list_holds(const Points& xs0, const Po
   tbb::parallel_for(tbb::blocked_range<Index>(0, nv, 4 * kParallelGrain), [&](const tbb::blocked_range<Index>& r) {
     bool all = true;
     for (Index v = r.begin(); v != r.end(); ++v) {
-      const Index c = cluster_[at(v)];
-      const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v) - mean[0].row(c);
-      const Eigen::RowVector3d end = xs0.row(v) + ds.row(v) - list_positions_.row(v) - mean[1].row(c);
-      drift_[at(v)] = std::max(start.cwiseAbs().maxCoeff(), end.cwiseAbs().maxCoeff());
-      all = all && drift_[at(v)] <= margin_[at(v)];
+      all = measure_drift(xs0, ds, v) && all;
     }
     if (!all) within.store(false, std::memory_order_relaxed);
   });
   held_ = within.load();
   return held_ ? ListCheck::holds : ListCheck::vertices_past_margins;
+}
+
+bool SelfCollisions::clusters_within(Index a, Index b) const {
+  const std::array<Points, 2>& mean = cluster_motion_;
+  const double allowed = allowance_[at(a * clusters_ + b)];
+  return (mean[0].row(a) - mean[0].row(b)).cwiseAbs().maxCoeff() <= allowed &&
+         (mean[1].row(a) - mean[1].row(b)).cwiseAbs().maxCoeff() <= allowed;
+}
+
+bool SelfCollisions::measure_drift(const Points& xs0, const Points& ds, Index v) {
+  const std::array<Points, 2>& mean = cluster_motion_;
+  const Index c = cluster_[at(v)];
+  const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v) - mean[0].row(c);
+  const Eigen::RowVector3d end = xs0.row(v) + ds.row(v) - list_positions_.row(v) - mean[1].row(c);
+  drift_[at(v)] = std::max(start.cwiseAbs().maxCoeff(), end.cwiseAbs().maxCoeff());
+  return drift_[at(v)] <= margin_[at(v)];
 }
 
 SelfCollisions::ListCheck SelfCollisions::list_holds_again(const Points& xs0, const Points& ds,
@@ -402,14 +410,8 @@ SelfCollisions::ListCheck SelfCollisions::list_holds_again(const Points& xs0, co
       num_changed,
       [&](Index k) {  // the pairs of a changed cluster with every other (each pair a < b as list_holds reads it)
         const Index c = changed_clusters_[at(k)];
-        for (Index o = 0; o < nc; ++o) {
-          if (o == c) continue;
-          const Index a = std::min(c, o), b = std::max(c, o);
-          const double allowed = allowance_[at(a * nc + b)];
-          if (!((mean[0].row(a) - mean[0].row(b)).cwiseAbs().maxCoeff() <= allowed &&
-                (mean[1].row(a) - mean[1].row(b)).cwiseAbs().maxCoeff() <= allowed))
-            return true;
-        }
+        for (Index o = 0; o < nc; ++o)
+          if (o != c && !clusters_within(std::min(c, o), std::max(c, o))) return true;
         return false;
       },
       1);
@@ -423,11 +425,7 @@ SelfCollisions::ListCheck SelfCollisions::list_holds_again(const Points& xs0, co
         const Index c = changed_clusters_[at(k)];
         bool all = true;
         for (Index i = cluster_offsets_[at(c)]; i < cluster_offsets_[at(c) + 1]; ++i) {
-          const Index v = cluster_vertices_[at(i)];
-          const Eigen::RowVector3d start = xs0.row(v) - list_positions_.row(v) - mean[0].row(c);
-          const Eigen::RowVector3d end = xs0.row(v) + ds.row(v) - list_positions_.row(v) - mean[1].row(c);
-          drift_[at(v)] = std::max(start.cwiseAbs().maxCoeff(), end.cwiseAbs().maxCoeff());
-          all = all && drift_[at(v)] <= margin_[at(v)];
+          all = measure_drift(xs0, ds, cluster_vertices_[at(i)]) && all;
         }
         cluster_past_[at(k)] = all ? 0 : 1;
       },

@@ -173,6 +173,19 @@ TEST(SelfCollisions, AListAfterClustersPartedLetsThemPartFurther) {
   EXPECT_GE(built[2] - built[1], 2 * (built[1] - built[0]) - 1);
 }
 
+/// The lowest node of stacked_boxes(gap)'s upper box lattice near its
+/// bottom face's centre (outside the box, no element below it); −1 if none.
+Index sinking_node(const Body& body, double gap) {
+  Index sinking = -1;
+  for (Index n = 0; n < body.num_nodes(); ++n) {
+    const Eigen::RowVector3d p = body.positions.row(n);
+    if (p.z() > 0.05 + 0.5 * gap && std::abs(p.x()) < 0.03 && std::abs(p.y()) < 0.03 &&
+        (sinking < 0 || p.z() < body.positions(sinking, 2)))
+      sinking = n;
+  }
+  return sinking;
+}
+
 TEST(SelfCollisions, AListOutrunByAFewVerticesIsExtendedAndListsWhatAFreshOneWould) {
   // The lowest node of the upper box's lattice near its bottom face's
   // centre (outside the box, no element below it) sinks 6 mm a step: the
@@ -190,15 +203,9 @@ TEST(SelfCollisions, AListOutrunByAFewVerticesIsExtendedAndListsWhatAFreshOneWou
   // misses impacts the fresh one finds, at step 66), lists a pair a fresh
   // build would not report, lets the bulge cross, differs on one thread,
   // or never happens.
-  const double gap = 0.1, step = 0.006;
-  const Body body = stacked_boxes(gap, 0.1, 8);
-  Index sinking = -1;
-  for (Index n = 0; n < body.num_nodes(); ++n) {
-    const Eigen::RowVector3d p = body.positions.row(n);
-    if (p.z() > 0.05 + 0.5 * gap && std::abs(p.x()) < 0.03 && std::abs(p.y()) < 0.03 &&
-        (sinking < 0 || p.z() < body.positions(sinking, 2)))
-      sinking = n;
-  }
+  const double step = 0.006;
+  const Body body = stacked_boxes(0.1, 0.1, 8);
+  const Index sinking = sinking_node(body, 0.1);
   ASSERT_GE(sinking, 0);
   Points x = body.positions;
   SelfCollisions kept, kept_on_one_thread;  // the extension's sweep is parallel: the same bits on one
@@ -641,6 +648,21 @@ double exact_pair_ratio(const Body& body, const Points& rest, Index a, Index b) 
   return ratio;
 }
 
+/// Per surface triangle, the element holding all three corners (−1: none),
+/// as the self-collision stage gives CalmStars::update_surface.
+std::vector<Index> elements_of_triangles(const Body& body) {
+  const auto nt = static_cast<Index>(body.surface_triangles.rows());
+  std::vector<Index> element_of(at(nt));
+  for (Index t = 0; t < nt; ++t) {
+    const Index e = body.embedding.parent[at(body.surface_triangles(t, 0))];
+    element_of[at(t)] = body.embedding.parent[at(body.surface_triangles(t, 1))] == e &&
+                                body.embedding.parent[at(body.surface_triangles(t, 2))] == e
+                            ? e
+                            : -1;
+  }
+  return element_of;
+}
+
 TEST(CalmStars, StarsFoundFromTheMovedElementsListWhatThePassOverAllStarsLists) {
   // Two boxes 4 mm apart (facing sheets with near pairs in shared stars),
   // grouped on a calm step; then rounds that stir a few nodes each, more
@@ -651,14 +673,7 @@ TEST(CalmStars, StarsFoundFromTheMovedElementsListWhatThePassOverAllStarsLists) 
   // missed, a full group is taken again, or its pairs are not taken.
   const Body body = stacked_boxes(0.004);
   const Index nt = static_cast<Index>(body.surface_triangles.rows()), nn = body.num_nodes();
-  std::vector<Index> element_of(at(nt));
-  for (Index t = 0; t < nt; ++t) {
-    const Index e = body.embedding.parent[at(body.surface_triangles(t, 0))];
-    element_of[at(t)] = body.embedding.parent[at(body.surface_triangles(t, 1))] == e &&
-                                body.embedding.parent[at(body.surface_triangles(t, 2))] == e
-                            ? e
-                            : -1;
-  }
+  const std::vector<Index> element_of = elements_of_triangles(body);
   const Points x0 = body.positions;
   Points d = -0.02 * (x0.rowwise() - x0.colwise().mean());
   CalmStars all;
@@ -706,14 +721,7 @@ TEST(CalmStars, TheNearPairsAreExactlyThoseWithAPrimitivePairAboveTheRatio) {
     SCOPED_TRACE(gap);
     Body body = stacked_boxes(gap, 0.1, 12);
     const Index nt = static_cast<Index>(body.surface_triangles.rows());
-    std::vector<Index> element_of(at(nt));
-    for (Index t = 0; t < nt; ++t) {
-      const Index e = body.embedding.parent[at(body.surface_triangles(t, 0))];
-      element_of[at(t)] = body.embedding.parent[at(body.surface_triangles(t, 1))] == e &&
-                                  body.embedding.parent[at(body.surface_triangles(t, 2))] == e
-                              ? e
-                              : -1;
-    }
+    const std::vector<Index> element_of = elements_of_triangles(body);
     CalmStars stars;
     stars.update_mesh(body);
     stars.update_surface(body, element_of);
@@ -844,15 +852,9 @@ TEST(SelfCollisions, ChecksAfterImpulsesLookOnlyAtWhatMovedWithTheSameResults) {
   // orientations or stars are not measured again.
   {
     SCOPED_TRACE("a bulge meeting a box: one list over many steps, extended and rebuilt");
-    const double gap = 0.1, step = 0.006;
-    const Body body = stacked_boxes(gap, 0.1, 8);
-    Index sinking = -1;
-    for (Index n = 0; n < body.num_nodes(); ++n) {
-      const Eigen::RowVector3d p = body.positions.row(n);
-      if (p.z() > 0.05 + 0.5 * gap && std::abs(p.x()) < 0.03 && std::abs(p.y()) < 0.03 &&
-          (sinking < 0 || p.z() < body.positions(sinking, 2)))
-        sinking = n;
-    }
+    const double step = 0.006;
+    const Body body = stacked_boxes(0.1, 0.1, 8);
+    const Index sinking = sinking_node(body, 0.1);
     ASSERT_GE(sinking, 0);
     Points x = body.positions;
     Rechecks both;
