@@ -62,7 +62,7 @@ inline void jacobi_rotate(Mat3<typename Ops::R>& A, Mat3<typename Ops::R>& V, ty
 
 /// Whether A(p, q) is still to be rotated away: not negligible next to
 /// √(a_pp a_qq) (relative convergence, which keeps small eigenvalues
-/// accurate).
+/// accurate), compared squared (no square roots).
 template <class Ops, int p, int q>
 inline typename Ops::M off_diagonal_left(const Mat3<typename Ops::R>& A) {
   const auto apq = A(p, q);
@@ -92,8 +92,11 @@ template <class Ops>
 inline void svd3_lanes(const Mat3<typename Ops::R>& F_in, Mat3<typename Ops::R>& U, typename Ops::R sigma[3],
                        Mat3<typename Ops::R>& V) {
   using R = typename Ops::R;
-  // Work on F / max|F_ij| so that FᵀF neither overflows nor underflows for
-  // any finite F; σ is scaled back at the end.
+  // Work on F / 2^k, 2^k the power of two at or below max|F_ij| (at least
+  // the least normal double), so that FᵀF neither overflows nor underflows
+  // for any finite F: a multiplication by 2^−k, exact; σ is scaled back at
+  // the end. A NaN entry makes the lane NaN, an infinite one its finite
+  // entries 0, as a division by max|F_ij| did.
   R largest = Ops::abs(F_in.m[0]);
   for (int k = 1; k < 9; ++k) largest = Ops::max(largest, Ops::abs(F_in.m[k]));
   const typename Ops::M nonzero = largest > 0.0;

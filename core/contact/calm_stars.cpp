@@ -490,7 +490,7 @@ std::vector<std::array<Index, 2>> CalmStars::newly_unsafe(const Body& body, cons
     // ones not yet full, ascending (grouped_'s order).
     gradients(body, x0, d, *moved_elements);
     const Index nn = body.num_nodes();
-    if (star_stamp_.size() != at(nn)) {
+    if (star_stamp_.size() != at(nn) || star_call_ == std::numeric_limits<Index>::max()) {
       star_stamp_.assign(at(nn), 0);
       star_call_ = 0;
     }

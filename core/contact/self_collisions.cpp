@@ -1276,7 +1276,10 @@ SelfCollisionStats SelfCollisions::resolve(const Body& body, const Points& x0, P
                                                      static_cast<Index>(moved_nodes_.size()) * kFewMoved <= nn)) &&
                 index_elements(body);
     if (few_moved) {
-      ++stamp_;
+      if (++stamp_ == 0) {  // wrapped: no element may keep an old stamp
+        std::fill(element_stamp_.begin(), element_stamp_.end(), 0);
+        stamp_ = 1;
+      }
       moved_elements.clear();
       for (const Index n : moved_nodes_)
         for (Index c = body.incidence.offsets[at(n)]; c < body.incidence.offsets[at(n) + 1]; ++c) {

@@ -175,6 +175,14 @@ class SelfCollisions {
   /// same result and the same bits as a check of all.
   enum class ListCheck { holds, vertices_past_margins, clusters_parted };
   ListCheck list_holds(const Points& xs0, const Points& ds, const std::vector<Index>* changed = nullptr);
+  /// list_holds with `changed`, after a check that held.
+  ListCheck list_holds_again(const Points& xs0, const Points& ds, const std::vector<Index>& changed);
+  /// Whether clusters a < b's mean motions (cluster_motion_) are within
+  /// their allowance of each other at the step's start and end.
+  [[nodiscard]] bool clusters_within(Index a, Index b) const;
+  /// Sets vertex v's drift (drift_) from its cluster's mean motions; whether
+  /// it is within its margin.
+  bool measure_drift(const Points& xs0, const Points& ds, Index v);
   /// Keeps a list whose clusters hold but a few of whose vertices drifted
   /// past their margins: widens those margins, grows their primitives'
   /// boxes and lists the pairs the wider boxes reach, as a build with those
@@ -323,13 +331,6 @@ class SelfCollisions {
   std::vector<std::uint8_t> cluster_changed_;  // per cluster (list_holds with `changed`)
   std::vector<Index> changed_clusters_;
   std::vector<std::uint8_t> cluster_past_;  // per changed cluster: a vertex past its margin
-  ListCheck list_holds_again(const Points& xs0, const Points& ds, const std::vector<Index>& changed);
-  /// Whether clusters a < b's mean motions (cluster_motion_) are within
-  /// their allowance of each other at the step's start and end.
-  [[nodiscard]] bool clusters_within(Index a, Index b) const;
-  /// Sets vertex v's drift (drift_) from its cluster's mean motions; whether
-  /// it is within its margin.
-  bool measure_drift(const Points& xs0, const Points& ds, Index v);
   std::vector<Index> list_groups_;    // per triangle, its group at the build (overlapping_pairs pairs none within one)
   double list_edge_length_ = 0.0;     // the mean edge at the build
   int extensions_ = 0;                // extend_list's since the build
