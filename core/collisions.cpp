@@ -9,6 +9,7 @@
 #include <cstring>
 #include <limits>
 
+#include "core/element_vertices.h"
 #include "core/error.h"
 #include "core/parallel.h"
 
@@ -60,13 +61,7 @@ void SurfaceCollisions::index_vertices(const Body& body) {
     return;
   copy_in_parallel(body.embedding.parent, indexed_parent_);
   copy_in_parallel(body.embedding.bary, indexed_bary_);
-  // Element → its surface vertices (counting sort: vertices increasing).
-  offsets_.assign(at(ne) + 1, 0);
-  for (Index s = 0; s < nv; ++s) ++offsets_[at(body.embedding.parent[at(s)]) + 1];
-  for (std::size_t e = 0; e + 1 < offsets_.size(); ++e) offsets_[e + 1] += offsets_[e];
-  vertices_.resize(at(nv));
-  std::vector<Index> fill(offsets_.begin(), offsets_.end() - 1);
-  for (Index s = 0; s < nv; ++s) vertices_[at(fill[at(body.embedding.parent[at(s)])]++)] = s;
+  index_element_vertices(body.embedding.parent, ne, offsets_, vertices_);  // vertices increasing
   // Per element, the range of each barycentric coordinate over its
   // vertices (in vertex order: the embedding is read in sequence).
   bary_low_.assign(at(ne), Eigen::Vector4d::Constant(std::numeric_limits<double>::infinity()));

@@ -15,6 +15,7 @@
 
 #include "core/contact/box_pairs.h"
 #include "core/contact/ccd.h"
+#include "core/element_vertices.h"
 #include "core/parallel.h"
 #include "core/surface_topology.h"
 #include "core/union_find.h"
@@ -885,17 +886,12 @@ bool SelfCollisions::keep_pair(PairKind kind, const std::array<Index, 4>& v, con
 }
 
 bool SelfCollisions::index_elements(const Body& body) {
-  const Index ne = body.num_elements(), nv = body.embedding.num_vertices();
+  const Index ne = body.num_elements();
   const NodeIncidence& incidence = body.incidence;
   if (incidence.offsets.size() != at(body.num_nodes()) + 1 || incidence.corners.size() != 4 * at(ne)) return false;
   if (element_vertex_offsets_.size() != at(ne) + 1 || !same_bits(indexed_parents_, body.embedding.parent)) {
     indexed_parents_ = body.embedding.parent;
-    element_vertex_offsets_.assign(at(ne) + 1, 0);
-    for (Index v = 0; v < nv; ++v) ++element_vertex_offsets_[at(body.embedding.parent[at(v)]) + 1];
-    for (Index e = 0; e < ne; ++e) element_vertex_offsets_[at(e) + 1] += element_vertex_offsets_[at(e)];
-    element_vertices_.resize(at(nv));
-    std::vector<Index> next(element_vertex_offsets_.begin(), element_vertex_offsets_.end() - 1);
-    for (Index v = 0; v < nv; ++v) element_vertices_[at(next[at(body.embedding.parent[at(v)])]++)] = v;
+    index_element_vertices(body.embedding.parent, ne, element_vertex_offsets_, element_vertices_);
   }
   if (element_stamp_.size() != at(ne)) {
     element_stamp_.assign(at(ne), 0);
