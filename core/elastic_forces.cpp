@@ -38,67 +38,85 @@ void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Poi
   const IsotropicEnergy energy(body.material);
   const Material& material = body.material;
   const bool plastic = plastic_dt > 0.0 && material.plastic() && material.flow_rate > 0.0;
-  const double modulus = energy.lambda() + 2.0 * energy.mu();
+  ForceModel model;
+  model.stress = material.model == ElasticModel::fixed_corotated      ? LaneStress::fixed_corotated
+                 : material.model == ElasticModel::stable_neo_hookean ? LaneStress::stable_neo_hookean
+                                                                      : LaneStress::given;
+  model.mu = energy.mu();
+  model.lambda = energy.lambda();
+  model.modulus = energy.lambda() + 2.0 * energy.mu();
 
-  // kSvdLanes elements at a time: the deformations, their SVDs and the
-  // forces in the processor's vector lanes (core/force_batch.h: the same
-  // bits as one element at a time), the plastic flow and the stress of the
-  // model one element at a time.
+  // kSvdLanes elements at a time: the deformations, their SVDs, the
+  // polynomial models' stresses, the forces and the stability bounds in the
+  // processor's vector lanes (core/force_batch.h: the same bits as one
+  // element at a time), the plastic flow and the neo-Hookean's stress one
+  // element at a time.
   const SimdLevel level = simd_level_;
+  const auto& tets = body.tets;
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
     ForceBatch b;
+    b.model = model;
     for (Index first = range.begin(); first < range.end(); first += kSvdLanes) {
       const int lanes = static_cast<int>(std::min<Index>(kSvdLanes, range.end() - first));
-      for (int lane = 0; lane < kSvdLanes; ++lane) {
-        // A lane past the range's end holds the unit tetrahedron at rest.
-        const bool used = lane < lanes;
-        const Index e = used ? first + lane : 0;
-        for (int c = 0; c < 4; ++c)
-          for (int i = 0; i < 3; ++i) b.x[c][i][lane] = used ? x(body.tets(e, c), i) : (c == i + 1 ? 1.0 : 0.0);
-        for (int k = 0; k < 9; ++k) {
-          const double identity = k % 4 == 0 ? 1.0 : 0.0;
-          b.Dm_inv[k][lane] = used ? body.Dm_inv[at(e)].data()[k] : identity;
-          b.Fp[k][lane] = used ? body.Fp[at(e)].data()[k] : identity;
-        }
-      }
-      force_batch_deform(b, level);
       for (int lane = 0; lane < lanes; ++lane) {
         const Index e = first + lane;
-        Eigen::Matrix3d& Fp = body.Fp[at(e)];
-        Eigen::Matrix3d& Fp_inv = Fp_inv_[at(e)];
-        for (int k = 0; k < 9; ++k) Fp_inv.data()[k] = b.Fp_inv[k][lane];
-        if (plastic) {
-          Svd3 svd;
-          for (int k = 0; k < 9; ++k) {
-            svd.U.data()[k] = b.svd.U[k][lane];
-            svd.V.data()[k] = b.svd.V[k][lane];
+        double m_min = body.masses[tets(e, 0)];
+        for (int c = 0; c < 4; ++c) {
+          const Index n = tets(e, c);
+          for (int i = 0; i < 3; ++i) b.x[c][i][lane] = x(n, i);
+          m_min = std::min(m_min, body.masses[n]);
+        }
+        const double* Dm_inv = body.Dm_inv[at(e)].data();
+        const double* Fp = body.Fp[at(e)].data();
+        for (int k = 0; k < 9; ++k) {
+          b.Dm_inv[k][lane] = Dm_inv[k];
+          b.Fp[k][lane] = Fp[k];
+        }
+        b.rest_volume[lane] = body.rest_volumes[e];
+        b.least_mass[lane] = m_min;
+      }
+      // A lane past the range's end holds the unit tetrahedron at rest, of
+      // no volume.
+      for (int lane = lanes; lane < kSvdLanes; ++lane) {
+        for (int c = 0; c < 4; ++c)
+          for (int i = 0; i < 3; ++i) b.x[c][i][lane] = c == i + 1 ? 1.0 : 0.0;
+        for (int k = 0; k < 9; ++k) {
+          const double identity = k % 4 == 0 ? 1.0 : 0.0;
+          b.Dm_inv[k][lane] = identity;
+          b.Fp[k][lane] = identity;
+        }
+        for (int k = 0; k < 3; ++k) b.dpsi[k][lane] = 0.0;
+        b.rest_volume[lane] = 0.0;
+        b.least_mass[lane] = 1.0;
+      }
+      force_batch_deform(b, level);
+      if (plastic || model.stress == LaneStress::given)
+        for (int lane = 0; lane < lanes; ++lane) {
+          const Index e = first + lane;
+          if (plastic) {
+            Svd3 svd;
+            for (int k = 0; k < 9; ++k) {
+              svd.U.data()[k] = b.svd.U[k][lane];
+              svd.V.data()[k] = b.svd.V[k][lane];
+            }
+            for (int k = 0; k < 3; ++k) svd.sigma[k] = b.svd.sigma[k][lane];
+            Eigen::Matrix3d& Fp = body.Fp[at(e)];
+            if (plastic_flow(material, energy, plastic_dt, svd, Fp, body.alpha[e])) {
+              const Eigen::Matrix3d Fp_inv = Fp.inverse();
+              for (int k = 0; k < 9; ++k) {
+                b.Fp[k][lane] = Fp.data()[k];
+                b.Fp_inv[k][lane] = Fp_inv.data()[k];
+              }
+              for (int k = 0; k < 3; ++k) b.svd.sigma[k][lane] = svd.sigma[k];
+              flowed_[at(e)] = 1;
+            }
           }
-          for (int k = 0; k < 3; ++k) svd.sigma[k] = b.svd.sigma[k][lane];
-          if (plastic_flow(material, energy, plastic_dt, svd, Fp, body.alpha[e])) {
-            Fp_inv = Fp.inverse();
-            for (int k = 0; k < 9; ++k) b.Fp_inv[k][lane] = Fp_inv.data()[k];
-            for (int k = 0; k < 3; ++k) b.svd.sigma[k][lane] = svd.sigma[k];
-            flowed_[at(e)] = 1;
+          if (model.stress == LaneStress::given) {
+            const Eigen::Vector3d dpsi =
+                energy.dpsi(Eigen::Vector3d(b.svd.sigma[0][lane], b.svd.sigma[1][lane], b.svd.sigma[2][lane]));
+            for (int k = 0; k < 3; ++k) b.dpsi[k][lane] = dpsi[k];
           }
         }
-        const Eigen::Vector3d dpsi =
-            energy.dpsi(Eigen::Vector3d(b.svd.sigma[0][lane], b.svd.sigma[1][lane], b.svd.sigma[2][lane]));
-        for (int k = 0; k < 3; ++k) b.dpsi[k][lane] = dpsi[k];
-        const double stress_free_volume = body.rest_volumes[e] * Fp.determinant();
-        b.volume[lane] = stress_free_volume;
-
-        // Explicit stability bound (algorithms.md, "Time integration").
-        const Eigen::Matrix3d& Dm_inv = body.Dm_inv[at(e)];
-        const double grad_sq = Dm_inv.squaredNorm() + Dm_inv.colwise().sum().squaredNorm();
-        const double k_e = modulus * stress_free_volume * grad_sq;
-        double m_min = body.masses[body.tets(e, 0)];
-        for (int k = 1; k < 4; ++k) m_min = std::min(m_min, body.masses[body.tets(e, k)]);
-        element_dt_squared_[at(e)] = m_min / k_e;
-      }
-      for (int lane = lanes; lane < kSvdLanes; ++lane) {
-        for (int k = 0; k < 3; ++k) b.dpsi[k][lane] = 0.0;
-        b.volume[lane] = 0.0;
-      }
       force_batch_forces(b, level);
       for (int lane = 0; lane < lanes; ++lane) {
         const Index e = first + lane;
@@ -106,7 +124,13 @@ void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Poi
           Eigen::Vector3d& force = corner_forces_[at(incidence.slots[at(4 * e + c)])];
           for (int i = 0; i < 3; ++i) force[i] = b.f[c][i][lane];
         }
-        for (int k = 0; k < 9; ++k) Fe_[at(e)].data()[k] = b.Fe[k][lane];
+        double* Fe = Fe_[at(e)].data();
+        double* Fp_inv = Fp_inv_[at(e)].data();
+        for (int k = 0; k < 9; ++k) {
+          Fe[k] = b.Fe[k][lane];
+          Fp_inv[k] = b.Fp_inv[k][lane];
+        }
+        element_dt_squared_[at(e)] = b.dt_squared[lane];
       }
     }
   });

@@ -32,6 +32,9 @@ class ElasticForces {
   /// barycentric coordinates, rows of Dm⁻¹ and minus their sum) and m_min the
   /// element's lightest node. Multiply by a CFL number ≤ 1.
   [[nodiscard]] double critical_time_step() const { return critical_dt_; }
+  /// m_min / k_e of each element at the last evaluation (the square of its
+  /// own bound; critical_time_step is the root of the least).
+  [[nodiscard]] const std::vector<double>& element_critical_dt_squared() const { return element_dt_squared_; }
   /// Elements that flowed at the last evaluation.
   [[nodiscard]] Index plastic_elements() const { return plastic_count_; }
 

@@ -1,35 +1,56 @@
 #pragma once
 // The elastic force pass's arithmetic for kSvdLanes elements at once, in the
 // processor's vector lanes (core/elastic_forces.cpp): the deformation and
-// its SVD, then, after each element's plastic flow and stress (scalar), its
-// nodal forces and Fe. Each lane gives the one-element code's bits.
+// its SVD, then, after each element's plastic flow (scalar), its stress,
+// nodal forces, Fe and stability bound. Each lane gives the one-element
+// code's bits.
 #include "core/svd3_batch.h"
 
 namespace goo {
 
+/// Where ∂ψ/∂σ comes from in force_batch_forces: the lanes evaluate the
+/// polynomial models (IsotropicEnergy::dpsi's formulas and order); the
+/// neo-Hookean's logarithm is the caller's, one element at a time.
+enum class LaneStress : int { given, fixed_corotated, stable_neo_hookean };
+
+/// The material's constants for force_batch_forces.
+struct ForceModel {
+  LaneStress stress = LaneStress::given;
+  double mu = 0.0;
+  double lambda = 0.0;   ///< IsotropicEnergy::lambda() (λ + μ for stable neo-Hookean)
+  double modulus = 0.0;  ///< λ + 2μ of the stability bound
+};
+
 /// Component-wise, [component][lane]; 3×3 matrices column-major.
 struct alignas(64) ForceBatch {
-  // In: corners, Dm⁻¹ and Fp.
+  // In: corners, Dm⁻¹ and Fp (to force_batch_forces: Fp after flow).
   double x[4][3][kSvdLanes];
   double Dm_inv[9][kSvdLanes];
   double Fp[9][kSvdLanes];
+  // In to force_batch_forces: W (the rest volume), the element's lightest
+  // node's mass and the material.
+  double rest_volume[kSvdLanes];
+  double least_mass[kSvdLanes];
+  ForceModel model;
   // Fp⁻¹ (out of force_batch_deform; in to force_batch_forces, after flow).
   double Fp_inv[9][kSvdLanes];
   // F = Ds Dm⁻¹ Fp⁻¹ and its U, σ, V (σ in to force_batch_forces, after flow).
   Svd3Batch svd;
-  // In to force_batch_forces: ∂ψ/∂σ and W det Fp.
+  // ∂ψ/∂σ: in to force_batch_forces if model.stress is `given`, else out.
   double dpsi[3][kSvdLanes];
-  double volume[kSvdLanes];
-  // Out: the forces on the four corners and Fe = U diag(σ) Vᵀ.
+  // Out: the forces on the four corners, Fe = U diag(σ) Vᵀ and the squared
+  // stability bound m_min / k_e (ElasticForces::critical_time_step).
   double f[4][3][kSvdLanes];
   double Fe[9][kSvdLanes];
+  double dt_squared[kSvdLanes];
 };
 
 /// Fp⁻¹, then Fe = Ds Dm⁻¹ Fp⁻¹ into svd.F and its SVD.
 void force_batch_deform(ForceBatch& batch, SimdLevel level);
 
-/// H = −W det(Fp) U diag(∂ψ/∂σ) Vᵀ Fp⁻ᵀ Dm⁻ᵀ: corners 1–3 take its columns,
-/// corner 0 minus their sum; Fe = U diag(σ) Vᵀ.
+/// ∂ψ/∂σ (unless given); H = −W det(Fp) U diag(∂ψ/∂σ) Vᵀ Fp⁻ᵀ Dm⁻ᵀ:
+/// corners 1–3 take its columns, corner 0 minus their sum; Fe = U diag(σ) Vᵀ;
+/// m_min / ((λ + 2μ) W det(Fp) Σ_i |∇λ_i|²).
 void force_batch_forces(ForceBatch& batch, SimdLevel level);
 
 }  // namespace goo

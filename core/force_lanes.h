@@ -82,27 +82,74 @@ inline void force_batch_deform_lanes(ForceBatch& b) {
   }
 }
 
+/// det M in Eigen's order (its 3×3 determinant: expansion along the first row).
+template <class R>
+inline R determinant(const Mat3<R>& M) {
+  const auto minor = [&M](int a, int b, int c) { return M(0, a) * (M(1, b) * M(2, c) - M(1, c) * M(2, b)); };
+  return (minor(0, 1, 2) - minor(1, 0, 2)) + minor(2, 0, 1);
+}
+
+/// ∂ψ/∂σ of the polynomial models, IsotropicEnergy::dpsi's formulas in its
+/// order: J = σ₀σ₁σ₂, ∂J/∂σ_i the product of the other two;
+/// fixed corotated 2μ(σ_i − 1) + λ(J − 1) ∂J/∂σ_i, stable neo-Hookean
+/// μσ_i + (λ(J − 1) − μ) ∂J/∂σ_i.
+template <class R>
+inline void polynomial_dpsi(const ForceModel& model, const R sigma[3], R dpsi[3]) {
+  const R J = (sigma[0] * sigma[1]) * sigma[2];
+  const R dJ[3] = {sigma[1] * sigma[2], sigma[0] * sigma[2], sigma[0] * sigma[1]};
+  const R volumetric = model.lambda * (J - 1.0);
+  if (model.stress == LaneStress::fixed_corotated) {
+    const double two_mu = 2.0 * model.mu;
+    for (int i = 0; i < 3; ++i) dpsi[i] = two_mu * (sigma[i] - 1.0) + volumetric * dJ[i];
+  } else {
+    const R scale = volumetric - model.mu;
+    for (int i = 0; i < 3; ++i) dpsi[i] = model.mu * sigma[i] + scale * dJ[i];
+  }
+}
+
+/// Σ_i |∇λ_i|² of the barycentric gradients: the rows of Dm⁻¹ and minus
+/// their sum, as Eigen sums Dm⁻¹.squaredNorm() + Dm⁻¹.colwise().sum().squaredNorm()
+/// (the first over pairs of lanes, entries k and k + 2 together).
+template <class R>
+inline R gradients_squared(const Mat3<R>& D) {
+  R q[9];
+  for (int k = 0; k < 9; ++k) q[k] = D.m[k] * D.m[k];
+  const R entries = (((q[0] + q[2]) + (q[4] + q[6])) + ((q[1] + q[3]) + (q[5] + q[7]))) + q[8];
+  R c[3];
+  for (int j = 0; j < 3; ++j) c[j] = (D(0, j) + D(1, j)) + D(2, j);
+  return entries + (c[0] * c[0] + (c[1] * c[1] + c[2] * c[2]));
+}
+
 /// force_batch_forces, Ops::kWidth lanes at a time.
 template <class Ops>
 inline void force_batch_forces_lanes(ForceBatch& b) {
   using R = typename Ops::R;
+  const ForceModel& model = b.model;
   for (int first = 0; first < kSvdLanes; first += Ops::kWidth) {
-    Mat3<R> U, V, Fp_inv, Dm_inv, Fe;
+    Mat3<R> U, V, Fp, Fp_inv, Dm_inv, Fe;
     R sigma[3], dpsi[3], f[4][3];
     for (int k = 0; k < 9; ++k) {
       U.m[k] = Ops::load(&b.svd.U[k][first]);
       V.m[k] = Ops::load(&b.svd.V[k][first]);
+      Fp.m[k] = Ops::load(&b.Fp[k][first]);
       Fp_inv.m[k] = Ops::load(&b.Fp_inv[k][first]);
       Dm_inv.m[k] = Ops::load(&b.Dm_inv[k][first]);
     }
-    for (int k = 0; k < 3; ++k) {
-      sigma[k] = Ops::load(&b.svd.sigma[k][first]);
-      dpsi[k] = Ops::load(&b.dpsi[k][first]);
+    for (int k = 0; k < 3; ++k) sigma[k] = Ops::load(&b.svd.sigma[k][first]);
+    if (model.stress == LaneStress::given) {
+      for (int k = 0; k < 3; ++k) dpsi[k] = Ops::load(&b.dpsi[k][first]);
+    } else {
+      polynomial_dpsi(model, sigma, dpsi);
+      for (int k = 0; k < 3; ++k) Ops::store(&b.dpsi[k][first], dpsi[k]);
     }
-    element_forces(U, sigma, V, dpsi, Fp_inv, Dm_inv, Ops::load(&b.volume[first]), f, Fe);
+    const R volume = Ops::load(&b.rest_volume[first]) * determinant(Fp);
+    element_forces(U, sigma, V, dpsi, Fp_inv, Dm_inv, volume, f, Fe);
     for (int c = 0; c < 4; ++c)
       for (int i = 0; i < 3; ++i) Ops::store(&b.f[c][i][first], f[c][i]);
     for (int k = 0; k < 9; ++k) Ops::store(&b.Fe[k][first], Fe.m[k]);
+    // Explicit stability bound (algorithms.md, "Time integration").
+    const R stiffness = (model.modulus * volume) * gradients_squared(Dm_inv);
+    Ops::store(&b.dt_squared[first], Ops::load(&b.least_mass[first]) / stiffness);
   }
 }
 

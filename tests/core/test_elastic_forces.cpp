@@ -469,7 +469,7 @@ TEST(Damping, DiagonalBlocksAtEveryVectorWidthGiveTheElementLoopsBits) {
 // The force pass runs eight elements at a time in vector lanes; at every
 // level this processor has, it must give the bits of the one-element code
 // (element_forces after svd3 and plastic_flow, gathered in the incidence
-// order): forces, Fe, Fp⁻¹, the flowed Fp and α, for every model, with
+// order): forces, Fe, Fp⁻¹, the flowed Fp and α, the stability bounds, for every model, with
 // inverted elements, plastic flow, and a last batch that is not full.
 TEST(Forces, EveryVectorWidthGivesTheOneElementCodesBits) {
   for (const ElasticModel model : kModels) {
@@ -484,6 +484,10 @@ TEST(Forces, EveryVectorWidthGivesTheOneElementCodesBits) {
     for (Index n = 0; n < start.num_nodes(); ++n)
       for (int k = 0; k < 3; ++k) x(n, k) += 0.25 * u(rng);  // inverts some elements
     for (auto& Fp : start.Fp) Fp += 0.1 * Eigen::Matrix3d::NullaryExpr([&] { return u(rng); });
+    // A lattice's Dm⁻¹ has entries whose sums round exactly: perturbed, they
+    // tell every order of the stability bound's sums apart.
+    for (auto& Dm_inv : start.Dm_inv)
+      Dm_inv += 0.01 * Dm_inv.norm() * Eigen::Matrix3d::NullaryExpr([&] { return u(rng); });
     const double plastic_dt = 1e-3;
 
     // The one-element code.
@@ -508,6 +512,19 @@ TEST(Forces, EveryVectorWidthGivesTheOneElementCodesBits) {
     Points f_expected;
     gather_to_nodes(expected.incidence, per_element, f_expected);
     EXPECT_GT(flowed, 0);
+    // Each element's stability bound m_min / k_e, k_e = (λ + 2μ) W det(Fp)
+    // Σ_i |∇λ_i|², as the one-element code wrote it.
+    std::vector<double> dt_squared(per_element.size());
+    for (Index e = 0; e < expected.num_elements(); ++e) {
+      const auto k = static_cast<std::size_t>(e);
+      const Eigen::Matrix3d& Dm_inv = expected.Dm_inv[k];
+      const double grad_sq = Dm_inv.squaredNorm() + Dm_inv.colwise().sum().squaredNorm();
+      const double k_e =
+          (energy.lambda() + 2.0 * energy.mu()) * (expected.rest_volumes[e] * expected.Fp[k].determinant()) * grad_sq;
+      double m_min = expected.masses[expected.tets(e, 0)];
+      for (int c = 1; c < 4; ++c) m_min = std::min(m_min, expected.masses[expected.tets(e, c)]);
+      dt_squared[k] = m_min / k_e;
+    }
 
     const auto same = [](const auto& a, const auto& b) {
       return a.size() == b.size() &&
@@ -533,6 +550,10 @@ TEST(Forces, EveryVectorWidthGivesTheOneElementCodesBits) {
       EXPECT_EQ(differing_Fp_inv, 0) << what;
       EXPECT_EQ(differing_Fp, 0) << what;
       EXPECT_TRUE(same(body.alpha, expected.alpha)) << what;
+      EXPECT_EQ(std::memcmp(forces.element_critical_dt_squared().data(), dt_squared.data(),
+                            sizeof(double) * dt_squared.size()),
+                0)
+          << what;
     }
   }
 }
