@@ -127,7 +127,7 @@ struct FrozenDamping {
   explicit FrozenDamping(int cells) : body(moved_box(cells, 0.2, false)) {
     goo::Points f;
     forces.evaluate(body, body.positions, 0.0, f);
-    damping.freeze(body, forces.elastic_deformation(), forces.inverse_plastic_deformation());
+    damping.freeze(body, forces);
   }
   FrozenDamping(const FrozenDamping&) = delete;
   FrozenDamping& operator=(const FrozenDamping&) = delete;

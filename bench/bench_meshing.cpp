@@ -236,7 +236,7 @@ void BM_DampingApplyModel(benchmark::State& state) {
   goo::Points f;
   forces.evaluate(body, body.positions, 0.0, f);
   goo::Damping damping;
-  damping.freeze(body, forces.elastic_deformation(), forces.inverse_plastic_deformation());
+  damping.freeze(body, forces);
   goo::Points p = body.velocities, out;
   for (auto _ : state) {
     damping.apply(body, p, out);

@@ -7,23 +7,28 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <string>
 
 namespace goo {
 
 void Damping::freeze(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
                      const std::vector<Eigen::Matrix3d>& Fp_inv) {
   const Index ne = body.num_elements();
-  Fe_ = &Fe;
+  if (Fe.size() != at(ne) || Fp_inv.size() != at(ne))
+    throw Error("damping: frozen with " + std::to_string(Fe.size()) + " deformations for a body of " +
+                std::to_string(ne) + " elements");
   frozen_elements_ = at(ne);
   // Lanes past the last element stay zero (their forces are never read).
-  blocks_.resize(at((ne + kDampingLanes - 1) / kDampingLanes));
-  if (!blocks_.empty()) blocks_.back() = DampingBlock{};
+  own_blocks_.resize(at((ne + kDampingLanes - 1) / kDampingLanes));
+  if (!own_blocks_.empty()) own_blocks_.back() = DampingBlock{};
+  forces_blocks_ = nullptr;
+  frozen_ = true;
   const double beta = body.material.viscosity;
   tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
     for (Index e = range.begin(); e != range.end(); ++e) {
       const Eigen::Matrix3d& Q = Fp_inv[at(e)];
       const Eigen::Matrix3d A = body.Dm_inv[at(e)] * Q;
-      DampingBlock& block = blocks_[at(e / kDampingLanes)];
+      DampingBlock& block = own_blocks_[at(e / kDampingLanes)];
       const int lane = static_cast<int>(e % kDampingLanes);
       for (int k = 0; k < 9; ++k) {
         block.G[k][lane] = Fe[at(e)].data()[k];
@@ -34,9 +39,18 @@ void Damping::freeze(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
   });
 }
 
+void Damping::freeze(const Body& body, const ElasticForces& forces) {
+  if (forces.evaluated_elements() != body.num_elements())
+    throw Error("damping: frozen from a force evaluation of " + std::to_string(forces.evaluated_elements()) +
+                " elements for a body of " + std::to_string(body.num_elements()));
+  frozen_elements_ = at(body.num_elements());
+  forces_blocks_ = &forces.damping_blocks();
+  frozen_ = true;
+}
+
 void Damping::check_frozen(const Body& body) const {
   const auto ne = at(body.num_elements());
-  if (Fe_ == nullptr || Fe_->size() != ne || frozen_elements_ != ne)
+  if (!frozen_ || frozen_blocks().size() != (ne + kDampingLanes - 1) / kDampingLanes || frozen_elements_ != ne)
     throw Error("damping: applied to a body it was not frozen for (Damping::freeze after every force evaluation)");
 }
 
@@ -84,7 +98,7 @@ void Damping::element_pass(const Body& body, const Points& z, const Points& p, d
 }
 
 void Damping::store_corner_blocks(Index b, Index num_elements, SimdLevel level, DampingDiagonal& diagonal) {
-  damping_diagonal(blocks_[at(b)], diagonal, level);
+  damping_diagonal(frozen_blocks()[at(b)], diagonal, level);
   const Index first = b * kDampingLanes;
   const int count = static_cast<int>(std::min<Index>(kDampingLanes, num_elements - first));
   for (int lane = 0; lane < count; ++lane) {
@@ -105,7 +119,7 @@ void Damping::element_loop(const Body& body, const Velocity& velocity, const Sec
   if (second != nullptr) second_corner_forces_.resize(4 * at(ne));
   if (corner_blocks) element_blocks_.resize(at(ne));
   const SimdLevel level = active_simd_level();
-  const auto blocks = static_cast<Index>(blocks_.size());
+  const auto blocks = static_cast<Index>(frozen_blocks().size());
   tbb::parallel_for(
       tbb::blocked_range<Index>(0, blocks, kParallelGrain / kDampingLanes),
       [&](const tbb::blocked_range<Index>& range) {
@@ -120,7 +134,7 @@ void Damping::element_loop(const Body& body, const Velocity& velocity, const Sec
               const Index node = body.tets(first + lane, c);
               for (int i = 0; i < 3; ++i) lanes.v[c][i][lane] = x(node, i);
             }
-          damping_block(blocks_[at(b)], lanes, level);
+          damping_block(frozen_blocks()[at(b)], lanes, level);
           // Each element's four side by side: the node sums read them
           // scattered. (Written at each node's place in the incidence,
           // the writes scattered instead, one application took 1.1–1.4×
@@ -163,7 +177,7 @@ void Damping::diagonal_blocks(const Body& body, std::vector<Eigen::Matrix3d>& ou
   // Eight elements at a time from the frozen blocks, in the processor's
   // vector lanes (core/damping_batch.h; the same bits at every width).
   const SimdLevel level = active_simd_level();
-  const auto blocks = static_cast<Index>(blocks_.size());
+  const auto blocks = static_cast<Index>(frozen_blocks().size());
   tbb::parallel_for(tbb::blocked_range<Index>(0, blocks, kParallelGrain / kDampingLanes),
                     [&](const tbb::blocked_range<Index>& range) {
                       DampingDiagonal diagonal;

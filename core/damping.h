@@ -19,12 +19,16 @@ namespace goo {
 
 class Damping {
  public:
-  /// Freezes C at the elastic deformation Fe and Fp⁻¹ of each element
-  /// (ElasticForces records both at each evaluation): keeps Fe by reference
-  /// (it must outlive the applications) and computes per element what
-  /// every application would: A = Dm⁻¹ Fp⁻¹ (Ḟe = Vs A, Vs the velocity
-  /// differences) and 2β W det Fp.
+  /// Freezes C at the elastic deformation Fe and Fp⁻¹ of each element:
+  /// keeps per element, eight a block, Fe and what every application would
+  /// compute: A = Dm⁻¹ Fp⁻¹ (Ḟe = Vs A, Vs the velocity differences) and
+  /// 2β W det Fp.
   void freeze(const Body& body, const std::vector<Eigen::Matrix3d>& Fe, const std::vector<Eigen::Matrix3d>& Fp_inv);
+  /// The same from the force pass that computed them with the forces
+  /// (ElasticForces::damping_blocks, the same bits), kept by reference: the
+  /// operator of its last evaluation, while it lasts. Throws unless that
+  /// evaluation was of this body's elements.
+  void freeze(const Body& body, const ElasticForces& forces);
 
   /// out (#N×3) = −C v for nodal velocities v, C as last frozen: per
   /// element, with S = sym(Feᵀ Vs A), the forces on corners 1–3 are the
@@ -96,11 +100,17 @@ class Damping {
   void check_frozen(const Body& body) const;
   /// Each corner's force, element by element (4 e + k).
   std::vector<Eigen::Vector3d> corner_forces_, second_corner_forces_;
-  const std::vector<Eigen::Matrix3d>* Fe_ = nullptr;  ///< as frozen
-  std::size_t frozen_elements_ = 0;                   ///< elements of the body frozen for
+  std::size_t frozen_elements_ = 0;  ///< elements of the body frozen for
   /// Fe, A = Dm⁻¹ Fp⁻¹ and the scale 2β W det Fp as frozen, eight elements a
-  /// block (the one copy: diagonal_blocks reads A and the scale from here).
-  std::vector<DampingBlock> blocks_;
+  /// block: a force pass's (forces_blocks_, when frozen from one) or
+  /// own_blocks_ (the one copy: diagonal_blocks reads A and the scale from
+  /// here too).
+  [[nodiscard]] const std::vector<DampingBlock>& frozen_blocks() const {
+    return forces_blocks_ != nullptr ? *forces_blocks_ : own_blocks_;
+  }
+  const std::vector<DampingBlock>* forces_blocks_ = nullptr;
+  std::vector<DampingBlock> own_blocks_;
+  bool frozen_ = false;
   std::vector<std::array<Eigen::Matrix3d, 4>> element_blocks_;
 };
 

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "core/force_batch.h"
 #include "core/node_sums.h"
@@ -31,8 +32,8 @@ void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Poi
   const NodeIncidence& incidence = body.incidence;
   require_slots(incidence, ne, "elastic forces");
   corner_forces_.resize(4 * at(ne));
-  Fe_.resize(at(ne));
-  Fp_inv_.resize(at(ne));
+  damping_blocks_.resize(at((ne + kDampingLanes - 1) / kDampingLanes));
+  evaluated_elements_ = ne;
   element_dt_squared_.resize(at(ne));
   flowed_.assign(at(ne), 0);
   const IsotropicEnergy energy(body.material);
@@ -45,95 +46,111 @@ void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Poi
   model.mu = energy.mu();
   model.lambda = energy.lambda();
   model.modulus = energy.lambda() + 2.0 * energy.mu();
+  model.viscosity = material.viscosity;
 
   // kSvdLanes elements at a time: the deformations, their SVDs, the
-  // polynomial models' stresses, the forces and the stability bounds in the
-  // processor's vector lanes (core/force_batch.h: the same bits as one
-  // element at a time), the plastic flow and the neo-Hookean's stress one
-  // element at a time.
+  // polynomial models' stresses, the forces, the stability bounds and what
+  // the damping freezes in the processor's vector lanes (core/force_batch.h:
+  // the same bits as one element at a time), the plastic flow and the
+  // neo-Hookean's stress one element at a time. Batch j holds elements
+  // kSvdLanes j onwards, so its lanes fill whole damping blocks.
+  static_assert(kSvdLanes % kDampingLanes == 0);
   const SimdLevel level = simd_level_;
   const auto& tets = body.tets;
-  tbb::parallel_for(tbb::blocked_range<Index>(0, ne, kParallelGrain), [&](const tbb::blocked_range<Index>& range) {
-    ForceBatch b;
-    b.model = model;
-    for (Index first = range.begin(); first < range.end(); first += kSvdLanes) {
-      const int lanes = static_cast<int>(std::min<Index>(kSvdLanes, range.end() - first));
-      for (int lane = 0; lane < lanes; ++lane) {
-        const Index e = first + lane;
-        double m_min = body.masses[tets(e, 0)];
-        for (int c = 0; c < 4; ++c) {
-          const Index n = tets(e, c);
-          for (int i = 0; i < 3; ++i) b.x[c][i][lane] = x(n, i);
-          m_min = std::min(m_min, body.masses[n]);
-        }
-        const double* Dm_inv = body.Dm_inv[at(e)].data();
-        const double* Fp = body.Fp[at(e)].data();
-        for (int k = 0; k < 9; ++k) {
-          b.Dm_inv[k][lane] = Dm_inv[k];
-          b.Fp[k][lane] = Fp[k];
-        }
-        b.rest_volume[lane] = body.rest_volumes[e];
-        b.least_mass[lane] = m_min;
-      }
-      // A lane past the range's end holds the unit tetrahedron at rest, of
-      // no volume.
-      for (int lane = lanes; lane < kSvdLanes; ++lane) {
-        for (int c = 0; c < 4; ++c)
-          for (int i = 0; i < 3; ++i) b.x[c][i][lane] = c == i + 1 ? 1.0 : 0.0;
-        for (int k = 0; k < 9; ++k) {
-          const double identity = k % 4 == 0 ? 1.0 : 0.0;
-          b.Dm_inv[k][lane] = identity;
-          b.Fp[k][lane] = identity;
-        }
-        for (int k = 0; k < 3; ++k) b.dpsi[k][lane] = 0.0;
-        b.rest_volume[lane] = 0.0;
-        b.least_mass[lane] = 1.0;
-      }
-      force_batch_deform(b, level);
-      if (plastic || model.stress == LaneStress::given)
-        for (int lane = 0; lane < lanes; ++lane) {
-          const Index e = first + lane;
-          if (plastic) {
-            Svd3 svd;
+  const Index batches = (ne + kSvdLanes - 1) / kSvdLanes;
+  tbb::parallel_for(
+      tbb::blocked_range<Index>(0, batches, kParallelGrain / kSvdLanes), [&](const tbb::blocked_range<Index>& range) {
+        ForceBatch b;
+        b.model = model;
+        for (Index batch = range.begin(); batch != range.end(); ++batch) {
+          const Index first = batch * kSvdLanes;
+          const int lanes = static_cast<int>(std::min<Index>(kSvdLanes, ne - first));
+          for (int lane = 0; lane < lanes; ++lane) {
+            const Index e = first + lane;
+            double m_min = body.masses[tets(e, 0)];
+            for (int c = 0; c < 4; ++c) {
+              const Index n = tets(e, c);
+              for (int i = 0; i < 3; ++i) b.x[c][i][lane] = x(n, i);
+              m_min = std::min(m_min, body.masses[n]);
+            }
+            const double* Dm_inv = body.Dm_inv[at(e)].data();
+            const double* Fp = body.Fp[at(e)].data();
             for (int k = 0; k < 9; ++k) {
-              svd.U.data()[k] = b.svd.U[k][lane];
-              svd.V.data()[k] = b.svd.V[k][lane];
+              b.Dm_inv[k][lane] = Dm_inv[k];
+              b.Fp[k][lane] = Fp[k];
             }
-            for (int k = 0; k < 3; ++k) svd.sigma[k] = b.svd.sigma[k][lane];
-            Eigen::Matrix3d& Fp = body.Fp[at(e)];
-            if (plastic_flow(material, energy, plastic_dt, svd, Fp, body.alpha[e])) {
-              const Eigen::Matrix3d Fp_inv = Fp.inverse();
-              for (int k = 0; k < 9; ++k) {
-                b.Fp[k][lane] = Fp.data()[k];
-                b.Fp_inv[k][lane] = Fp_inv.data()[k];
+            b.rest_volume[lane] = body.rest_volumes[e];
+            b.least_mass[lane] = m_min;
+          }
+          // A lane past the range's end holds the unit tetrahedron at rest, of
+          // no volume.
+          for (int lane = lanes; lane < kSvdLanes; ++lane) {
+            for (int c = 0; c < 4; ++c)
+              for (int i = 0; i < 3; ++i) b.x[c][i][lane] = c == i + 1 ? 1.0 : 0.0;
+            for (int k = 0; k < 9; ++k) {
+              const double identity = k % 4 == 0 ? 1.0 : 0.0;
+              b.Dm_inv[k][lane] = identity;
+              b.Fp[k][lane] = identity;
+            }
+            for (int k = 0; k < 3; ++k) b.dpsi[k][lane] = 0.0;
+            b.rest_volume[lane] = 0.0;
+            b.least_mass[lane] = 1.0;
+          }
+          force_batch_deform(b, level);
+          if (plastic || model.stress == LaneStress::given)
+            for (int lane = 0; lane < lanes; ++lane) {
+              const Index e = first + lane;
+              if (plastic) {
+                Svd3 svd;
+                for (int k = 0; k < 9; ++k) {
+                  svd.U.data()[k] = b.svd.U[k][lane];
+                  svd.V.data()[k] = b.svd.V[k][lane];
+                }
+                for (int k = 0; k < 3; ++k) svd.sigma[k] = b.svd.sigma[k][lane];
+                Eigen::Matrix3d& Fp = body.Fp[at(e)];
+                if (plastic_flow(material, energy, plastic_dt, svd, Fp, body.alpha[e])) {
+                  const Eigen::Matrix3d Fp_inv = Fp.inverse();
+                  for (int k = 0; k < 9; ++k) {
+                    b.Fp[k][lane] = Fp.data()[k];
+                    b.Fp_inv[k][lane] = Fp_inv.data()[k];
+                  }
+                  for (int k = 0; k < 3; ++k) b.svd.sigma[k][lane] = svd.sigma[k];
+                  flowed_[at(e)] = 1;
+                }
               }
-              for (int k = 0; k < 3; ++k) b.svd.sigma[k][lane] = svd.sigma[k];
-              flowed_[at(e)] = 1;
+              if (model.stress == LaneStress::given) {
+                const Eigen::Vector3d dpsi =
+                    energy.dpsi(Eigen::Vector3d(b.svd.sigma[0][lane], b.svd.sigma[1][lane], b.svd.sigma[2][lane]));
+                for (int k = 0; k < 3; ++k) b.dpsi[k][lane] = dpsi[k];
+              }
+            }
+          force_batch_forces(b, level);
+          for (int lane = 0; lane < lanes; ++lane) {
+            const Index e = first + lane;
+            for (int c = 0; c < 4; ++c) {
+              Eigen::Vector3d& force = corner_forces_[at(incidence.slots[at(4 * e + c)])];
+              for (int i = 0; i < 3; ++i) force[i] = b.f[c][i][lane];
             }
           }
-          if (model.stress == LaneStress::given) {
-            const Eigen::Vector3d dpsi =
-                energy.dpsi(Eigen::Vector3d(b.svd.sigma[0][lane], b.svd.sigma[1][lane], b.svd.sigma[2][lane]));
-            for (int k = 0; k < 3; ++k) b.dpsi[k][lane] = dpsi[k];
+          std::copy_n(b.dt_squared, lanes, &element_dt_squared_[at(first)]);
+          for (int offset = 0; offset < lanes; offset += kDampingLanes) {
+            DampingBlock& block = damping_blocks_[at((first + offset) / kDampingLanes)];
+            // Whole rows of lanes (a constant size: moves of vector registers).
+            for (int k = 0; k < 9; ++k) {
+              std::memcpy(block.G[k], &b.Fe[k][offset], sizeof(block.G[k]));
+              std::memcpy(block.A[k], &b.A[k][offset], sizeof(block.A[k]));
+            }
+            std::memcpy(block.scale, &b.damping_scale[offset], sizeof(block.scale));
           }
         }
-      force_batch_forces(b, level);
-      for (int lane = 0; lane < lanes; ++lane) {
-        const Index e = first + lane;
-        for (int c = 0; c < 4; ++c) {
-          Eigen::Vector3d& force = corner_forces_[at(incidence.slots[at(4 * e + c)])];
-          for (int i = 0; i < 3; ++i) force[i] = b.f[c][i][lane];
-        }
-        double* Fe = Fe_[at(e)].data();
-        double* Fp_inv = Fp_inv_[at(e)].data();
-        for (int k = 0; k < 9; ++k) {
-          Fe[k] = b.Fe[k][lane];
-          Fp_inv[k] = b.Fp_inv[k][lane];
-        }
-        element_dt_squared_[at(e)] = b.dt_squared[lane];
-      }
+      });
+  if (const int used = static_cast<int>(ne % kDampingLanes); used > 0) {
+    DampingBlock& last = damping_blocks_.back();  // its lanes past the last element zero
+    for (int lane = used; lane < kDampingLanes; ++lane) {
+      for (int k = 0; k < 9; ++k) last.G[k][lane] = last.A[k][lane] = 0.0;
+      last.scale[lane] = 0.0;
     }
-  });
+  }
   sum_slots_to_nodes(incidence, corner_forces_, f);
   // min and counting are exact in any order. The root of the least ratio is
   // the least root (√ is correctly rounded and monotonic): one square root

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "core/body.h"
+#include "core/damping_batch.h"
 #include "core/element_elasticity.h"
 #include "core/svd3_batch.h"
 
@@ -18,15 +19,27 @@ class ElasticForces {
  public:
   /// f (#N×3, N) = elastic forces at positions x. If plastic_dt > 0, each
   /// element first flows plastically for a step of that length (reusing its
-  /// SVD), updating body.Fp and body.alpha. Records each element's Fe and
-  /// Fp⁻¹ (for damping) and its explicit time-step bound. Element e's
-  /// nodal forces are element_forces (core/element_elasticity.h).
+  /// SVD), updating body.Fp and body.alpha. Records each element's Fe, and
+  /// what the damping freezes with it (damping_blocks), and its explicit
+  /// time-step bound. Element e's nodal forces are element_forces
+  /// (core/element_elasticity.h).
   void evaluate(Body& body, const Points& x, double plastic_dt, Points& f);
 
-  /// Fe and Fp⁻¹ of every element at the last evaluation (after plastic
-  /// flow): what the damping solves freeze.
-  [[nodiscard]] const std::vector<Eigen::Matrix3d>& elastic_deformation() const { return Fe_; }
-  [[nodiscard]] const std::vector<Eigen::Matrix3d>& inverse_plastic_deformation() const { return Fp_inv_; }
+  /// The last evaluation's elements (after plastic flow) as the damping
+  /// freezes them, eight a block (element 8 b + lane at block b, lane; lanes
+  /// past the last element zero): G = Fe, A = Dm⁻¹ Fp⁻¹ and 2β W det Fp,
+  /// β the body's viscosity, the bits Damping::freeze(body, Fe, Fp⁻¹) would
+  /// compute. Damping::freeze(body, forces) keeps them by reference.
+  [[nodiscard]] const std::vector<DampingBlock>& damping_blocks() const { return damping_blocks_; }
+  /// Elements of the body at the last evaluation.
+  [[nodiscard]] Index evaluated_elements() const { return evaluated_elements_; }
+  /// Fe of element e at the last evaluation.
+  [[nodiscard]] Eigen::Matrix3d elastic_deformation(Index e) const {
+    const DampingBlock& block = damping_blocks_[at(e / kDampingLanes)];
+    Eigen::Matrix3d Fe;
+    for (int k = 0; k < 9; ++k) Fe.data()[k] = block.G[k][e % kDampingLanes];
+    return Fe;
+  }
   /// min over elements of √(m_min / k_e) at the last evaluation, with
   /// k_e = (λ + 2μ) W det(Fp) Σ_i |∇λ_i|² (∇λ_i: gradients of the
   /// barycentric coordinates, rows of Dm⁻¹ and minus their sum) and m_min the
@@ -45,8 +58,8 @@ class ElasticForces {
  private:
   /// Each corner's force, at its place in the incidence (NodeIncidence::slots).
   std::vector<Eigen::Vector3d> corner_forces_;
-  std::vector<Eigen::Matrix3d> Fe_;
-  std::vector<Eigen::Matrix3d> Fp_inv_;
+  std::vector<DampingBlock> damping_blocks_;
+  Index evaluated_elements_ = 0;
   std::vector<double> element_dt_squared_;  ///< m_min / k_e per element
   std::vector<unsigned char> flowed_;
   double critical_dt_ = 0.0;

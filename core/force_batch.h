@@ -19,6 +19,7 @@ struct ForceModel {
   double mu = 0.0;
   double lambda = 0.0;   ///< IsotropicEnergy::lambda() (λ + μ for stable neo-Hookean)
   double modulus = 0.0;  ///< λ + 2μ of the stability bound
+  double viscosity = 0.0;  ///< β of the damping (core/damping.h)
 };
 
 /// Component-wise, [component][lane]; 3×3 matrices column-major.
@@ -38,11 +39,15 @@ struct alignas(64) ForceBatch {
   Svd3Batch svd;
   // ∂ψ/∂σ: in to force_batch_forces if model.stress is `given`, else out.
   double dpsi[3][kSvdLanes];
-  // Out: the forces on the four corners, Fe = U diag(σ) Vᵀ and the squared
-  // stability bound m_min / k_e (ElasticForces::critical_time_step).
+  // Out: the forces on the four corners, Fe = U diag(σ) Vᵀ, the squared
+  // stability bound m_min / k_e (ElasticForces::critical_time_step), and
+  // what the damping freezes besides Fe (core/damping_batch.h): A = Dm⁻¹ Fp⁻¹
+  // and 2β W det Fp.
   double f[4][3][kSvdLanes];
   double Fe[9][kSvdLanes];
   double dt_squared[kSvdLanes];
+  double A[9][kSvdLanes];
+  double damping_scale[kSvdLanes];
 };
 
 /// Fp⁻¹, then Fe = Ds Dm⁻¹ Fp⁻¹ into svd.F and its SVD.
@@ -50,7 +55,8 @@ void force_batch_deform(ForceBatch& batch, SimdLevel level);
 
 /// ∂ψ/∂σ (unless given); H = −W det(Fp) U diag(∂ψ/∂σ) Vᵀ Fp⁻ᵀ Dm⁻ᵀ:
 /// corners 1–3 take its columns, corner 0 minus their sum; Fe = U diag(σ) Vᵀ;
-/// m_min / ((λ + 2μ) W det(Fp) Σ_i |∇λ_i|²).
+/// m_min / ((λ + 2μ) W det(Fp) Σ_i |∇λ_i|²); A = Dm⁻¹ Fp⁻¹ and
+/// 2β W / det(Fp⁻¹) (Damping::freeze's formulas and orders).
 void force_batch_forces(ForceBatch& batch, SimdLevel level);
 
 }  // namespace goo

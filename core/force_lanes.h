@@ -142,7 +142,8 @@ inline void force_batch_forces_lanes(ForceBatch& b) {
       polynomial_dpsi(model, sigma, dpsi);
       for (int k = 0; k < 3; ++k) Ops::store(&b.dpsi[k][first], dpsi[k]);
     }
-    const R volume = Ops::load(&b.rest_volume[first]) * determinant(Fp);
+    const R rest_volume = Ops::load(&b.rest_volume[first]);
+    const R volume = rest_volume * determinant(Fp);
     element_forces(U, sigma, V, dpsi, Fp_inv, Dm_inv, volume, f, Fe);
     for (int c = 0; c < 4; ++c)
       for (int i = 0; i < 3; ++i) Ops::store(&b.f[c][i][first], f[c][i]);
@@ -150,6 +151,10 @@ inline void force_batch_forces_lanes(ForceBatch& b) {
     // Explicit stability bound (algorithms.md, "Time integration").
     const R stiffness = (model.modulus * volume) * gradients_squared(Dm_inv);
     Ops::store(&b.dt_squared[first], Ops::load(&b.least_mass[first]) / stiffness);
+    // What the damping freezes (Damping::freeze(body, Fe, Fp⁻¹) in its order).
+    const Mat3<R> A = product(Dm_inv, Fp_inv);
+    for (int k = 0; k < 9; ++k) Ops::store(&b.A[k][first], A.m[k]);
+    Ops::store(&b.damping_scale[first], ((2.0 * model.viscosity) * rest_volume) / determinant(Fp_inv));
   }
 }
 

@@ -63,7 +63,7 @@ void NewmarkIntegrator::evaluate_forces(Body& body, double plastic_dt) {
   elastic_.evaluate(body, body.positions, plastic_dt, forces_);
   strain_since_blocks_ += std::exchange(step_strain_, 0.0);
   ++evaluations_since_blocks_;
-  damping_.freeze(body, elastic_.elastic_deformation(), elastic_.inverse_plastic_deformation());
+  damping_.freeze(body, elastic_);
   times_.forces += timer.lap();
   if (body.material.incompressible) volume_.add_pressure_forces(body, body.positions, forces_);
   times_.volume += timer.lap();

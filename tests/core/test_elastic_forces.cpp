@@ -113,7 +113,8 @@ TEST(Forces, BitwiseIdenticalForOneTwoAndEightThreads) {
     Damping damping;
     Points f, fd;
     forces.evaluate(body, x, 0.0, f);
-    damping.apply(body, forces.elastic_deformation(), forces.inverse_plastic_deformation(), v, fd);
+    damping.freeze(body, forces);
+    damping.apply(body, v, fd);
     Points both(f.rows(), 6);
     both << f, fd;
     results.push_back(both);
@@ -154,9 +155,8 @@ TEST(Damping, ZeroForRigidMotionOfADeformedBodyTorqueFreeAndDissipative) {
   const Points& x = cube.x;
   const ElasticForces& forces = cube.forces;
   Damping damping;
-  auto apply = [&](const Points& v, Points& out) {
-    damping.apply(body, forces.elastic_deformation(), forces.inverse_plastic_deformation(), v, out);
-  };
+  damping.freeze(body, forces);
+  auto apply = [&](const Points& v, Points& out) { damping.apply(body, v, out); };
   // A rigid velocity field v = ω × x + c dissipates nothing.
   const Eigen::Vector3d omega(0.3, -1.2, 0.7), c(1, 2, 3);
   Points v(body.num_nodes(), 3);
@@ -202,7 +202,8 @@ TEST(Damping, DiagonalBlocksAreTheForceOfEachNodesOwnVelocity) {
   forces.evaluate(body, x, 0.0, f);
   Damping damping;
   std::vector<Eigen::Matrix3d> blocks;
-  damping.diagonal_blocks(body, forces.elastic_deformation(), forces.inverse_plastic_deformation(), blocks);
+  damping.freeze(body, forces);
+  damping.diagonal_blocks(body, blocks);
   ASSERT_EQ(blocks.size(), static_cast<std::size_t>(body.num_nodes()));
   const double scale = 7.0 / 3.0;  // β h (h = 1/3): a block's size
   for (Index n = 0; n < body.num_nodes(); ++n) {
@@ -210,7 +211,7 @@ TEST(Damping, DiagonalBlocksAreTheForceOfEachNodesOwnVelocity) {
     for (int k = 0; k < 3; ++k) {
       Points v = Points::Zero(body.num_nodes(), 3), fd;
       v(n, k) = 1.0;
-      damping.apply(body, forces.elastic_deformation(), forces.inverse_plastic_deformation(), v, fd);
+      damping.apply(body, v, fd);
       column_by_column.col(k) = -fd.row(n).transpose();
     }
     EXPECT_LE((blocks[static_cast<std::size_t>(n)] - column_by_column).cwiseAbs().maxCoeff(), 1e-13 * scale)
@@ -227,7 +228,7 @@ TEST(Damping, OnePassForTwoVelocityFieldsGivesEachTheBitsOfItsOwnPass) {
   const ShearedCube cube = sheared_cube(3.0);
   const Body& body = cube.body;
   Damping damping;
-  damping.freeze(body, cube.forces.elastic_deformation(), cube.forces.inverse_plastic_deformation());
+  damping.freeze(body, cube.forces);
   std::mt19937 rng(4);
   std::uniform_real_distribution<double> u(-1, 1);
   Points v(body.num_nodes(), 3), w(body.num_nodes(), 3);
@@ -281,7 +282,7 @@ TEST(Damping, AFrozenOperatorIsRefusedForABodyItWasNotFrozenFor) {
   ElasticForces forces;
   Points f;
   forces.evaluate(body, body.positions, 0.0, f);
-  damping.freeze(body, forces.elastic_deformation(), forces.inverse_plastic_deformation());
+  damping.freeze(body, forces);
   damping.apply(body, v, out);
   EXPECT_EQ(out.cwiseAbs().maxCoeff(), 0.0);
   Body bigger = make_cube(ElasticModel::fixed_corotated, 3);
@@ -315,6 +316,22 @@ struct ShakenCube {
   }
 };
 
+/// Fe of every element at the forces' last evaluation.
+std::vector<Eigen::Matrix3d> elastic_deformations(const ElasticForces& forces) {
+  std::vector<Eigen::Matrix3d> Fe(static_cast<std::size_t>(forces.evaluated_elements()));
+  for (Index e = 0; e < forces.evaluated_elements(); ++e)
+    Fe[static_cast<std::size_t>(e)] = forces.elastic_deformation(e);
+  return Fe;
+}
+
+/// Fp⁻¹ of every element: the force pass's own (the same bits:
+/// Forces.EveryVectorWidthGivesTheOneElementCodesBits).
+std::vector<Eigen::Matrix3d> inverses(const std::vector<Eigen::Matrix3d>& Fp) {
+  std::vector<Eigen::Matrix3d> out(Fp.size());
+  for (std::size_t k = 0; k < Fp.size(); ++k) out[k] = Fp[k].inverse();
+  return out;
+}
+
 /// The frozen damping operator of elements first … first + 7 (lanes past
 /// the last element zero), as Damping::freeze stores it.
 DampingBlock frozen_block(const Body& body, const std::vector<Eigen::Matrix3d>& Fe,
@@ -344,8 +361,8 @@ TEST(Damping, EveryVectorWidthGivesTheElementLoopsBits) {
   ASSERT_NE(body.num_elements() % kDampingLanes, 0);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   const Points v = Points::NullaryExpr(body.num_nodes(), 3, [&] { return u(rng); });
-  const auto& Fe = cube.forces.elastic_deformation();
-  const auto& Fp_inv = cube.forces.inverse_plastic_deformation();
+  const std::vector<Eigen::Matrix3d> Fe = elastic_deformations(cube.forces);
+  const std::vector<Eigen::Matrix3d> Fp_inv = inverses(body.Fp);
 
   std::vector<Matrix34> per_element(static_cast<std::size_t>(body.num_elements()));
   for (Index e = 0; e < body.num_elements(); ++e) {
@@ -402,8 +419,8 @@ TEST(Damping, DiagonalBlocksAtEveryVectorWidthGiveTheElementLoopsBits) {
   const ShakenCube cube(rng);
   const Body& body = cube.body;
   ASSERT_NE(body.num_elements() % kDampingLanes, 0);
-  const auto& Fe = cube.forces.elastic_deformation();
-  const auto& Fp_inv = cube.forces.inverse_plastic_deformation();
+  const std::vector<Eigen::Matrix3d> Fe = elastic_deformations(cube.forces);
+  const std::vector<Eigen::Matrix3d> Fp_inv = inverses(body.Fp);
 
   std::vector<std::array<Eigen::Matrix3d, 4>> per_element(static_cast<std::size_t>(body.num_elements()));
   for (Index e = 0; e < body.num_elements(); ++e) {
@@ -469,7 +486,8 @@ TEST(Damping, DiagonalBlocksAtEveryVectorWidthGiveTheElementLoopsBits) {
 // The force pass runs eight elements at a time in vector lanes; at every
 // level this processor has, it must give the bits of the one-element code
 // (element_forces after svd3 and plastic_flow, gathered in the incidence
-// order): forces, Fe, Fp⁻¹, the flowed Fp and α, the stability bounds, for every model, with
+// order): forces, Fe, the flowed Fp and α, the stability bounds and what the
+// damping freezes (Fe, Dm⁻¹ Fp⁻¹, 2β W det Fp) for every model, with
 // inverted elements, plastic flow, and a last batch that is not full.
 TEST(Forces, EveryVectorWidthGivesTheOneElementCodesBits) {
   for (const ElasticModel model : kModels) {
@@ -477,6 +495,7 @@ TEST(Forces, EveryVectorWidthGivesTheOneElementCodesBits) {
     start.material.yield_stress = 10.0;
     start.material.flow_rate = 50.0;
     start.material.hardening = 5.0;
+    start.material.viscosity = 3.0;
     ASSERT_TRUE(start.material.plastic());
     std::mt19937 rng(12);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
@@ -540,14 +559,20 @@ TEST(Forces, EveryVectorWidthGivesTheOneElementCodesBits) {
       const std::string what = std::string(to_string(model)) + " at " + std::string(simd_level_name(level));
       EXPECT_TRUE(same(f, f_expected)) << what << ": largest difference " << (f - f_expected).cwiseAbs().maxCoeff();
       EXPECT_EQ(forces.plastic_elements(), flowed) << what;
-      int differing_Fe = 0, differing_Fp_inv = 0, differing_Fp = 0;
+      int differing_Fe = 0, differing_Fp = 0, differing_blocks = 0;
       for (std::size_t k = 0; k < per_element.size(); ++k) {
-        differing_Fe += !same(forces.elastic_deformation()[k], Fe[k]);
-        differing_Fp_inv += !same(forces.inverse_plastic_deformation()[k], Fp_inv[k]);
+        differing_Fe += !same(forces.elastic_deformation(static_cast<Index>(k)), Fe[k]);
         differing_Fp += !same(body.Fp[k], expected.Fp[k]);
       }
+      // What the damping freezes, as Damping::freeze(body, Fe, Fp⁻¹) would
+      // (Fe, A = Dm⁻¹ Fp⁻¹, 2β W det Fp), its last block's spare lanes zero.
+      ASSERT_EQ(forces.damping_blocks().size(), (per_element.size() + kDampingLanes - 1) / kDampingLanes);
+      for (std::size_t block = 0; block < forces.damping_blocks().size(); ++block) {
+        const DampingBlock frozen = frozen_block(expected, Fe, Fp_inv, static_cast<Index>(block) * kDampingLanes);
+        differing_blocks += std::memcmp(&forces.damping_blocks()[block], &frozen, sizeof(DampingBlock)) != 0;
+      }
       EXPECT_EQ(differing_Fe, 0) << what;
-      EXPECT_EQ(differing_Fp_inv, 0) << what;
+      EXPECT_EQ(differing_blocks, 0) << what;
       EXPECT_EQ(differing_Fp, 0) << what;
       EXPECT_TRUE(same(body.alpha, expected.alpha)) << what;
       EXPECT_EQ(std::memcmp(forces.element_critical_dt_squared().data(), dt_squared.data(),

@@ -121,11 +121,12 @@ TEST(ElementElasticity, DampingMatrixReproducesTheViscousForces) {
   forces.evaluate(body, body.positions, 0.0, f);
   Damping damping;
   Points expected;
-  damping.apply(body, forces.elastic_deformation(), forces.inverse_plastic_deformation(), v, expected);
+  damping.freeze(body, forces);
+  damping.apply(body, v, expected);
   Points got = Points::Zero(body.num_nodes(), 3);
   for (Index e = 0; e < body.num_elements(); ++e) {
-    const Matrix12 C = element_damping_matrix(body.material.viscosity, ElementRest::of(body, e),
-                                              forces.elastic_deformation()[at(e)]);
+    const Matrix12 C =
+        element_damping_matrix(body.material.viscosity, ElementRest::of(body, e), forces.elastic_deformation(e));
     Eigen::Matrix<double, 12, 1> ve;
     for (int k = 0; k < 4; ++k) ve.segment<3>(3 * k) = v.row(body.tets(e, k)).transpose();
     const Eigen::Matrix<double, 12, 1> fe = -C * ve;
