@@ -7,7 +7,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
+#include <string>
 
+#include "core/error.h"
 #include "core/force_batch.h"
 #include "core/node_sums.h"
 #include "core/plasticity.h"
@@ -27,10 +30,61 @@ void gather_to_nodes(const NodeIncidence& incidence, const std::vector<Matrix34>
       [&](Index n, const Eigen::Vector3d& sum) { out.row(n) = sum.transpose(); });
 }
 
+namespace {
+
+/// The body's arrays force_batch_gather reads.
+ForceSources force_sources(const Body& body, const Points& x) {
+  ForceSources sources;
+  sources.x = x.data();
+  sources.masses = body.masses.data();
+  sources.tets = body.tets.data();
+  sources.Dm_inv = body.Dm_inv.empty() ? nullptr : body.Dm_inv.front().data();
+  sources.Fp = body.Fp.empty() ? nullptr : body.Fp.front().data();
+  sources.rest_volumes = body.rest_volumes.data();
+  return sources;
+}
+
+/// force_batch_gather's values for a batch of `lanes` < kSvdLanes elements
+/// from `first`, one element at a time; a lane past the last element holds
+/// the unit tetrahedron at rest, of no volume.
+void gather_last_batch(const Body& body, const Points& x, Index first, int lanes, ForceBatch& b) {
+  for (int lane = 0; lane < lanes; ++lane) {
+    const Index e = first + lane;
+    double m_min = body.masses[body.tets(e, 0)];
+    for (int c = 0; c < 4; ++c) {
+      const Index n = body.tets(e, c);
+      for (int i = 0; i < 3; ++i) b.x[c][i][lane] = x(n, i);
+      m_min = std::min(m_min, body.masses[n]);
+    }
+    for (int k = 0; k < 9; ++k) {
+      b.Dm_inv[k][lane] = body.Dm_inv[at(e)].data()[k];
+      b.Fp[k][lane] = body.Fp[at(e)].data()[k];
+    }
+    b.rest_volume[lane] = body.rest_volumes[e];
+    b.least_mass[lane] = m_min;
+  }
+  for (int lane = lanes; lane < kSvdLanes; ++lane) {
+    for (int c = 0; c < 4; ++c)
+      for (int i = 0; i < 3; ++i) b.x[c][i][lane] = c == i + 1 ? 1.0 : 0.0;
+    for (int k = 0; k < 9; ++k) {
+      const double identity = k % 4 == 0 ? 1.0 : 0.0;
+      b.Dm_inv[k][lane] = identity;
+      b.Fp[k][lane] = identity;
+    }
+    for (int k = 0; k < 3; ++k) b.dpsi[k][lane] = 0.0;
+    b.rest_volume[lane] = 0.0;
+    b.least_mass[lane] = 1.0;
+  }
+}
+
+}  // namespace
+
 void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Points& f) {
   const Index ne = body.num_elements();
   const NodeIncidence& incidence = body.incidence;
   require_slots(incidence, ne, "elastic forces");
+  if (ne > std::numeric_limits<int>::max() / 9 - kSvdLanes)
+    throw Error("elastic forces: " + std::to_string(ne) + " elements, more than the force pass can index");
   corner_forces_.resize(4 * at(ne));
   damping_blocks_.resize(at((ne + kDampingLanes - 1) / kDampingLanes));
   evaluated_elements_ = ne;
@@ -47,16 +101,66 @@ void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Poi
   model.lambda = energy.lambda();
   model.modulus = energy.lambda() + 2.0 * energy.mu();
   model.viscosity = material.viscosity;
+  const ForceSources sources = force_sources(body, x);
 
-  // kSvdLanes elements at a time: the deformations, their SVDs, the
-  // polynomial models' stresses, the forces, the stability bounds and what
-  // the damping freezes in the processor's vector lanes (core/force_batch.h:
-  // the same bits as one element at a time), the plastic flow and the
-  // neo-Hookean's stress one element at a time. Batch j holds elements
-  // kSvdLanes j onwards, so its lanes fill whole damping blocks.
+  // Each lane's plastic flow (reusing its SVD) and the neo-Hookean's stress,
+  // one element at a time.
+  const auto flow_and_stress = [&](ForceBatch& b, Index first, int lanes) {
+    for (int lane = 0; lane < lanes; ++lane) {
+      const Index e = first + lane;
+      if (plastic) {
+        Svd3 svd;
+        for (int k = 0; k < 9; ++k) {
+          svd.U.data()[k] = b.svd.U[k][lane];
+          svd.V.data()[k] = b.svd.V[k][lane];
+        }
+        for (int k = 0; k < 3; ++k) svd.sigma[k] = b.svd.sigma[k][lane];
+        Eigen::Matrix3d& Fp = body.Fp[at(e)];
+        if (plastic_flow(material, energy, plastic_dt, svd, Fp, body.alpha[e])) {
+          const Eigen::Matrix3d Fp_inv = Fp.inverse();
+          for (int k = 0; k < 9; ++k) {
+            b.Fp[k][lane] = Fp.data()[k];
+            b.Fp_inv[k][lane] = Fp_inv.data()[k];
+          }
+          for (int k = 0; k < 3; ++k) b.svd.sigma[k][lane] = svd.sigma[k];
+          flowed_[at(e)] = 1;
+        }
+      }
+      if (model.stress == LaneStress::given) {
+        const Eigen::Vector3d dpsi =
+            energy.dpsi(Eigen::Vector3d(b.svd.sigma[0][lane], b.svd.sigma[1][lane], b.svd.sigma[2][lane]));
+        for (int k = 0; k < 3; ++k) b.dpsi[k][lane] = dpsi[k];
+      }
+    }
+  };
+  // Each corner's force at its place in the incidence, the bounds, and
+  // whole rows of damping-block lanes (a constant size: moves of vector
+  // registers).
+  const auto store = [&](const ForceBatch& b, Index first, int lanes) {
+    for (int lane = 0; lane < lanes; ++lane)
+      for (int c = 0; c < 4; ++c) {
+        Eigen::Vector3d& force = corner_forces_[at(incidence.slots[at(4 * (first + lane) + c)])];
+        for (int i = 0; i < 3; ++i) force[i] = b.f[c][i][lane];
+      }
+    std::copy_n(b.dt_squared, lanes, &element_dt_squared_[at(first)]);
+    for (int offset = 0; offset < lanes; offset += kDampingLanes) {
+      DampingBlock& block = damping_blocks_[at((first + offset) / kDampingLanes)];
+      for (int k = 0; k < 9; ++k) {
+        std::memcpy(block.G[k], &b.Fe[k][offset], sizeof(block.G[k]));
+        std::memcpy(block.A[k], &b.A[k][offset], sizeof(block.A[k]));
+      }
+      std::memcpy(block.scale, &b.damping_scale[offset], sizeof(block.scale));
+    }
+  };
+
+  // kSvdLanes elements at a time: the gathers, the deformations, their
+  // SVDs, the polynomial models' stresses, the forces, the stability bounds
+  // and what the damping freezes in the processor's vector lanes
+  // (core/force_batch.h: the same bits as one element at a time). Batch j
+  // holds elements kSvdLanes j onwards, so its lanes fill whole damping
+  // blocks.
   static_assert(kSvdLanes % kDampingLanes == 0);
   const SimdLevel level = simd_level_;
-  const auto& tets = body.tets;
   const Index batches = (ne + kSvdLanes - 1) / kSvdLanes;
   tbb::parallel_for(
       tbb::blocked_range<Index>(0, batches, kParallelGrain / kSvdLanes), [&](const tbb::blocked_range<Index>& range) {
@@ -65,83 +169,14 @@ void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Poi
         for (Index batch = range.begin(); batch != range.end(); ++batch) {
           const Index first = batch * kSvdLanes;
           const int lanes = static_cast<int>(std::min<Index>(kSvdLanes, ne - first));
-          for (int lane = 0; lane < lanes; ++lane) {
-            const Index e = first + lane;
-            double m_min = body.masses[tets(e, 0)];
-            for (int c = 0; c < 4; ++c) {
-              const Index n = tets(e, c);
-              for (int i = 0; i < 3; ++i) b.x[c][i][lane] = x(n, i);
-              m_min = std::min(m_min, body.masses[n]);
-            }
-            const double* Dm_inv = body.Dm_inv[at(e)].data();
-            const double* Fp = body.Fp[at(e)].data();
-            for (int k = 0; k < 9; ++k) {
-              b.Dm_inv[k][lane] = Dm_inv[k];
-              b.Fp[k][lane] = Fp[k];
-            }
-            b.rest_volume[lane] = body.rest_volumes[e];
-            b.least_mass[lane] = m_min;
-          }
-          // A lane past the range's end holds the unit tetrahedron at rest, of
-          // no volume.
-          for (int lane = lanes; lane < kSvdLanes; ++lane) {
-            for (int c = 0; c < 4; ++c)
-              for (int i = 0; i < 3; ++i) b.x[c][i][lane] = c == i + 1 ? 1.0 : 0.0;
-            for (int k = 0; k < 9; ++k) {
-              const double identity = k % 4 == 0 ? 1.0 : 0.0;
-              b.Dm_inv[k][lane] = identity;
-              b.Fp[k][lane] = identity;
-            }
-            for (int k = 0; k < 3; ++k) b.dpsi[k][lane] = 0.0;
-            b.rest_volume[lane] = 0.0;
-            b.least_mass[lane] = 1.0;
-          }
+          if (lanes == kSvdLanes)
+            force_batch_gather(sources, first, b, level);
+          else
+            gather_last_batch(body, x, first, lanes, b);
           force_batch_deform(b, level);
-          if (plastic || model.stress == LaneStress::given)
-            for (int lane = 0; lane < lanes; ++lane) {
-              const Index e = first + lane;
-              if (plastic) {
-                Svd3 svd;
-                for (int k = 0; k < 9; ++k) {
-                  svd.U.data()[k] = b.svd.U[k][lane];
-                  svd.V.data()[k] = b.svd.V[k][lane];
-                }
-                for (int k = 0; k < 3; ++k) svd.sigma[k] = b.svd.sigma[k][lane];
-                Eigen::Matrix3d& Fp = body.Fp[at(e)];
-                if (plastic_flow(material, energy, plastic_dt, svd, Fp, body.alpha[e])) {
-                  const Eigen::Matrix3d Fp_inv = Fp.inverse();
-                  for (int k = 0; k < 9; ++k) {
-                    b.Fp[k][lane] = Fp.data()[k];
-                    b.Fp_inv[k][lane] = Fp_inv.data()[k];
-                  }
-                  for (int k = 0; k < 3; ++k) b.svd.sigma[k][lane] = svd.sigma[k];
-                  flowed_[at(e)] = 1;
-                }
-              }
-              if (model.stress == LaneStress::given) {
-                const Eigen::Vector3d dpsi =
-                    energy.dpsi(Eigen::Vector3d(b.svd.sigma[0][lane], b.svd.sigma[1][lane], b.svd.sigma[2][lane]));
-                for (int k = 0; k < 3; ++k) b.dpsi[k][lane] = dpsi[k];
-              }
-            }
+          if (plastic || model.stress == LaneStress::given) flow_and_stress(b, first, lanes);
           force_batch_forces(b, level);
-          for (int lane = 0; lane < lanes; ++lane) {
-            const Index e = first + lane;
-            for (int c = 0; c < 4; ++c) {
-              Eigen::Vector3d& force = corner_forces_[at(incidence.slots[at(4 * e + c)])];
-              for (int i = 0; i < 3; ++i) force[i] = b.f[c][i][lane];
-            }
-          }
-          std::copy_n(b.dt_squared, lanes, &element_dt_squared_[at(first)]);
-          for (int offset = 0; offset < lanes; offset += kDampingLanes) {
-            DampingBlock& block = damping_blocks_[at((first + offset) / kDampingLanes)];
-            // Whole rows of lanes (a constant size: moves of vector registers).
-            for (int k = 0; k < 9; ++k) {
-              std::memcpy(block.G[k], &b.Fe[k][offset], sizeof(block.G[k]));
-              std::memcpy(block.A[k], &b.A[k][offset], sizeof(block.A[k]));
-            }
-            std::memcpy(block.scale, &b.damping_scale[offset], sizeof(block.scale));
-          }
+          store(b, first, lanes);
         }
       });
   if (const int used = static_cast<int>(ne % kDampingLanes); used > 0) {

@@ -50,6 +50,21 @@ struct alignas(64) ForceBatch {
   double damping_scale[kSvdLanes];
 };
 
+/// Where force_batch_gather reads its elements: the body's arrays.
+struct ForceSources {
+  const double* x = nullptr;             ///< #N×3 positions, row by row
+  const double* masses = nullptr;        ///< #N
+  const int* tets = nullptr;             ///< #E×4 node indices, row by row
+  const double* Dm_inv = nullptr;        ///< #E 3×3, column-major, one after another
+  const double* Fp = nullptr;            ///< #E 3×3, likewise
+  const double* rest_volumes = nullptr;  ///< #E
+};
+
+/// Elements first … first + kSvdLanes − 1 (all of them in `sources`; 9 (first
+/// + kSvdLanes) must fit an int) into the batch's x, Dm_inv, Fp, rest_volume
+/// and least_mass: the processor's gathers where it has them.
+void force_batch_gather(const ForceSources& sources, int first, ForceBatch& batch, SimdLevel level);
+
 /// Fp⁻¹, then Fe = Ds Dm⁻¹ Fp⁻¹ into svd.F and its SVD.
 void force_batch_deform(ForceBatch& batch, SimdLevel level);
 

@@ -60,6 +60,37 @@ inline void element_forces(const Mat3<R>& U, const R sigma[3], const Mat3<R>& V,
   Fe = product_transposed_into_memory(scaled_columns(U, sigma), V);  // kept per element
 }
 
+/// force_batch_gather, Ops::kWidth lanes at a time: each corner's node, its
+/// position and mass (the least of the four kept as std::min keeps it),
+/// the element's Dm⁻¹, Fp and W.
+template <class Ops>
+inline void force_batch_gather_lanes(const ForceSources& s, int first, ForceBatch& b) {
+  using R = typename Ops::R;
+  constexpr int width = Ops::kWidth;
+  for (int lane = 0; lane < kSvdLanes; lane += width) {
+    const int e = first + lane;
+    int node[4][sizeof(R) / sizeof(double)], index[sizeof(R) / sizeof(double)];  // width each
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < width; ++k) node[c][k] = s.tets[4 * (e + k) + c];
+    R least = Ops::gather(s.masses, node[0]);
+    for (int c = 0; c < 4; ++c) {
+      const R mass = Ops::gather(s.masses, node[c]);
+      least = Ops::select(mass < least, mass, least);
+      for (int i = 0; i < 3; ++i) {
+        for (int k = 0; k < width; ++k) index[k] = 3 * node[c][k] + i;
+        Ops::store(&b.x[c][i][lane], Ops::gather(s.x, index));
+      }
+    }
+    Ops::store(&b.least_mass[lane], least);
+    for (int m = 0; m < 9; ++m) {
+      for (int k = 0; k < width; ++k) index[k] = 9 * (e + k) + m;
+      Ops::store(&b.Dm_inv[m][lane], Ops::gather(s.Dm_inv, index));
+      Ops::store(&b.Fp[m][lane], Ops::gather(s.Fp, index));
+    }
+    Ops::store(&b.rest_volume[lane], Ops::load(&s.rest_volumes[e]));
+  }
+}
+
 /// force_batch_deform's arithmetic, Ops::kWidth lanes at a time (the SVD is
 /// the caller's).
 template <class Ops>

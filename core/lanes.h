@@ -98,6 +98,8 @@ struct ScalarOps {
   using M = bool;
   static constexpr int kWidth = 1;
   static double load(const double* p) { return *p; }
+  /// base[index[0]] (the lanes' gather).
+  static double gather(const double* base, const int* index) { return base[index[0]]; }
   static void store(double* p, double x) { *p = x; }
   static double splat(double x) { return x; }
   static double sqrt(double x) { return __builtin_sqrt(x); }

@@ -1,6 +1,6 @@
 #pragma once
 // The batched kernels of one instruction-set level, as a table: svd3_batch,
-// damping_block, damping_diagonal and the force pass's two halves each look their level up
+// damping_block, damping_diagonal and the force pass's three parts each look their level up
 // here instead of dispatching by hand.
 #include "core/damping_batch.h"
 #include "core/force_batch.h"
@@ -12,6 +12,7 @@ struct SimdKernels {
   void (*svd3_batch)(Svd3Batch& batch);
   void (*damping_block)(const DampingBlock& block, DampingLanes& lanes);
   void (*damping_diagonal)(const DampingBlock& block, DampingDiagonal& out);
+  void (*force_batch_gather)(const ForceSources& sources, int first, ForceBatch& batch);
   void (*force_batch_deform)(ForceBatch& batch);
   void (*force_batch_forces)(ForceBatch& batch);
 };

@@ -39,6 +39,23 @@ struct VectorOps {
     return out;
   }
   static void store(double* p, R x) { __builtin_memcpy(p, &x, sizeof(R)); }
+  /// Lane k: base[index[k]]. (The masked forms with every lane on and a
+  /// zero pass-through: GCC 12's unmasked ones warn of their own undefined
+  /// operand.)
+  static R gather(const double* base, const int* index) {
+#if defined(__AVX512F__)
+    const __m256i lanes = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(index));
+    return reinterpret_cast<R>(_mm512_mask_i32gather_pd(_mm512_setzero_pd(), 0xff, lanes, base, 8));
+#elif defined(__AVX2__)
+    const __m128i lanes = _mm_loadu_si128(reinterpret_cast<const __m128i*>(index));
+    const __m256d all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+    return reinterpret_cast<R>(_mm256_mask_i32gather_pd(_mm256_setzero_pd(), base, lanes, all, 8));
+#else
+    R out;
+    for (int k = 0; k < kWidth; ++k) out[k] = base[index[k]];
+    return out;
+#endif
+  }
   static R splat(double x) { return R{} + x; }
   static R sqrt(R x) {
 #if defined(__AVX512F__)
@@ -191,6 +208,10 @@ inline void damping_diagonal_vector(const DampingBlock& block, DampingDiagonal& 
   }
 }
 
+inline void force_batch_gather_vector(const ForceSources& sources, int first, ForceBatch& batch) {
+  force_batch_gather_lanes<VectorOps>(sources, first, batch);
+}
+
 inline void force_batch_deform_vector(ForceBatch& batch) {
   force_batch_deform_lanes<VectorOps>(batch);
   svd3_batch_vector(batch.svd);
@@ -201,7 +222,8 @@ inline void force_batch_forces_vector(ForceBatch& batch) {
 }
 
 /// The kernels of the including translation unit's instruction set.
-constexpr SimdKernels kVectorKernels = {svd3_batch_vector, damping_block_vector, damping_diagonal_vector,
+constexpr SimdKernels kVectorKernels = {svd3_batch_vector,         damping_block_vector,
+                                        damping_diagonal_vector,   force_batch_gather_vector,
                                         force_batch_deform_vector, force_batch_forces_vector};
 
 }  // namespace

@@ -67,6 +67,10 @@ void damping_diagonal_scalar(const DampingBlock& block, DampingDiagonal& out) {
   }
 }
 
+void force_batch_gather_scalar(const ForceSources& sources, int first, ForceBatch& batch) {
+  force_batch_gather_lanes<ScalarOps>(sources, first, batch);
+}
+
 void force_batch_deform_scalar(ForceBatch& batch) {
   force_batch_deform_lanes<ScalarOps>(batch);
   svd3_batch_scalar(batch.svd);
@@ -76,7 +80,8 @@ void force_batch_forces_scalar(ForceBatch& batch) {
   force_batch_forces_lanes<ScalarOps>(batch);
 }
 
-constexpr SimdKernels kScalarKernels = {svd3_batch_scalar, damping_block_scalar, damping_diagonal_scalar,
+constexpr SimdKernels kScalarKernels = {svd3_batch_scalar,         damping_block_scalar,
+                                        damping_diagonal_scalar,   force_batch_gather_scalar,
                                         force_batch_deform_scalar, force_batch_forces_scalar};
 
 SimdLevel widest_supported() {
@@ -161,6 +166,10 @@ void damping_block(const DampingBlock& block, DampingLanes& lanes, SimdLevel lev
 
 void damping_diagonal(const DampingBlock& block, DampingDiagonal& out, SimdLevel level) {
   simd_kernels(level).damping_diagonal(block, out);
+}
+
+void force_batch_gather(const ForceSources& sources, int first, ForceBatch& batch, SimdLevel level) {
+  simd_kernels(level).force_batch_gather(sources, first, batch);
 }
 
 void force_batch_deform(ForceBatch& batch, SimdLevel level) {
