@@ -68,7 +68,9 @@ void BM_Svd3Batch(benchmark::State& state) {
 BENCHMARK(BM_Svd3Batch)->DenseRange(0, 3);
 
 /// One elastic force evaluation (fixed corotated, with SVD) of a deformed box
-/// of 6 c³ tets; args: cells per side c, threads. Elements per second.
+/// of 6 c³ tets; args: cells per side c, threads. Elements per second. The
+/// evaluation writes what the damping freezes too (since session 42: the
+/// integrator's whole force stage, the freeze a reference to it).
 void BM_ElasticForces(benchmark::State& state) {
   const int cells = static_cast<int>(state.range(0));
   const auto threads = static_cast<std::size_t>(state.range(1));

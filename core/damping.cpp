@@ -60,6 +60,12 @@ namespace {
 struct NodalVelocities {
   const Points& v;
   double operator()(Index node, int i) const { return v(node, i); }
+  [[nodiscard]] DampingSources sources(const Tets& tets) const {
+    DampingSources s;
+    s.v = v.data();
+    s.tets = tets.data();
+    return s;
+  }
 };
 
 /// z + β p entry by entry, as Eigen's z.row(n) + β p.row(n) rounds it.
@@ -68,6 +74,14 @@ struct NextDirection {
   const Points& p;
   double beta;
   double operator()(Index node, int i) const { return z(node, i) + beta * p(node, i); }
+  [[nodiscard]] DampingSources sources(const Tets& tets) const {
+    DampingSources s;
+    s.v = z.data();
+    s.p = p.data();
+    s.beta = beta;
+    s.tets = tets.data();
+    return s;
+  }
 };
 
 }  // namespace
@@ -129,11 +143,15 @@ void Damping::element_loop(const Body& body, const Velocity& velocity, const Sec
         auto block_forces = [&](Index b, const auto& x, std::vector<Eigen::Vector3d>& out) {
           const Index first = b * kDampingLanes;
           const int count = static_cast<int>(std::min<Index>(kDampingLanes, ne - first));
-          for (int lane = 0; lane < count; ++lane)
-            for (int c = 0; c < 4; ++c) {
-              const Index node = body.tets(first + lane, c);
-              for (int i = 0; i < 3; ++i) lanes.v[c][i][lane] = x(node, i);
-            }
+          if (count == kDampingLanes) {
+            damping_gather(x.sources(body.tets), first, lanes, level);
+          } else {
+            for (int lane = 0; lane < count; ++lane)
+              for (int c = 0; c < 4; ++c) {
+                const Index node = body.tets(first + lane, c);
+                for (int i = 0; i < 3; ++i) lanes.v[c][i][lane] = x(node, i);
+              }
+          }
           damping_block(frozen_blocks()[at(b)], lanes, level);
           // Each element's four side by side: the node sums read them
           // scattered. (Written at each node's place in the incidence,

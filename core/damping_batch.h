@@ -23,6 +23,22 @@ struct alignas(64) DampingLanes {
   double f[4][3][kDampingLanes];
 };
 
+/// Where damping_gather reads a block's corner velocities: v, or v + β p
+/// (the conjugate gradients' next direction, formed as it is read), at the
+/// nodes of the elements' corners.
+struct DampingSources {
+  const double* v = nullptr;  ///< #N×3, row by row
+  const double* p = nullptr;  ///< #N×3, row by row, or none
+  double beta = 0.0;          ///< β of v + β p
+  const int* tets = nullptr;  ///< #E×4 node indices, row by row
+};
+
+/// The corner velocities of elements first … first + kDampingLanes − 1 (all
+/// of them in `sources`; 4 (first + kDampingLanes) must fit an int) into
+/// lanes.v, each v + β p as (v + (β p)) when p is given: the processor's
+/// gathers where it has them.
+void damping_gather(const DampingSources& sources, int first, DampingLanes& lanes, SimdLevel level);
+
 /// f = −C_e v for every lane of the block at `level` (which must be
 /// supported).
 void damping_block(const DampingBlock& block, DampingLanes& lanes, SimdLevel level);

@@ -12,6 +12,25 @@
 namespace goo::lanes {
 namespace {  // NOLINT(cert-dcl59-cpp, google-build-namespaces): see lanes.h
 
+/// damping_gather, Ops::kWidth lanes at a time.
+template <class Ops>
+inline void damping_gather_lanes(const DampingSources& s, int first, DampingLanes& out) {
+  using R = typename Ops::R;
+  constexpr int width = Ops::kWidth;
+  for (int lane = 0; lane < kDampingLanes; lane += width) {
+    int node[4][sizeof(R) / sizeof(double)], index[sizeof(R) / sizeof(double)];  // width each
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < width; ++k) node[c][k] = s.tets[4 * (first + lane + k) + c];
+    for (int c = 0; c < 4; ++c)
+      for (int i = 0; i < 3; ++i) {
+        for (int k = 0; k < width; ++k) index[k] = 3 * node[c][k] + i;
+        R v = Ops::gather(s.v, index);
+        if (s.p != nullptr) v = v + s.beta * Ops::gather(s.p, index);
+        Ops::store(&out.v[c][i][lane], v);
+      }
+  }
+}
+
 /// The damping forces of one group of lanes: Ḟe = Vs A, S = sym(Feᵀ Ḟe),
 /// H = (−2βW det Fp) Fe S Aᵀ; node 0 takes −Σ of H's columns.
 template <class Ops>

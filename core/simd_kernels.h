@@ -1,6 +1,6 @@
 #pragma once
 // The batched kernels of one instruction-set level, as a table: svd3_batch,
-// damping_block, damping_diagonal and the force pass's three parts each look their level up
+// the damping's gather, block and diagonal and the force pass's three parts each look their level up
 // here instead of dispatching by hand.
 #include "core/damping_batch.h"
 #include "core/force_batch.h"
@@ -10,6 +10,7 @@ namespace goo {
 
 struct SimdKernels {
   void (*svd3_batch)(Svd3Batch& batch);
+  void (*damping_gather)(const DampingSources& sources, int first, DampingLanes& lanes);
   void (*damping_block)(const DampingBlock& block, DampingLanes& lanes);
   void (*damping_diagonal)(const DampingBlock& block, DampingDiagonal& out);
   void (*force_batch_gather)(const ForceSources& sources, int first, ForceBatch& batch);

@@ -171,6 +171,10 @@ inline void svd3_batch_vector(Svd3Batch& batch) {
   }
 }
 
+inline void damping_gather_vector(const DampingSources& sources, int first, DampingLanes& lanes) {
+  damping_gather_lanes<VectorOps>(sources, first, lanes);
+}
+
 /// The damping block kWidth lanes at a time.
 inline void damping_block_vector(const DampingBlock& block, DampingLanes& lanes) {
   constexpr auto bytes = sizeof(Lanes);
@@ -222,9 +226,9 @@ inline void force_batch_forces_vector(ForceBatch& batch) {
 }
 
 /// The kernels of the including translation unit's instruction set.
-constexpr SimdKernels kVectorKernels = {svd3_batch_vector,         damping_block_vector,
-                                        damping_diagonal_vector,   force_batch_gather_vector,
-                                        force_batch_deform_vector, force_batch_forces_vector};
+constexpr SimdKernels kVectorKernels = {svd3_batch_vector,        damping_gather_vector,     damping_block_vector,
+                                        damping_diagonal_vector,  force_batch_gather_vector, force_batch_deform_vector,
+                                        force_batch_forces_vector};
 
 }  // namespace
 }  // namespace goo::lanes

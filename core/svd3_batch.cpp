@@ -37,6 +37,10 @@ void svd3_batch_scalar(Svd3Batch& batch) {
   }
 }
 
+void damping_gather_scalar(const DampingSources& sources, int first, DampingLanes& lanes) {
+  damping_gather_lanes<ScalarOps>(sources, first, lanes);
+}
+
 void damping_block_scalar(const DampingBlock& block, DampingLanes& batch) {
   for (int lane = 0; lane < kDampingLanes; ++lane) {
     Mat3<double> G, A;
@@ -80,9 +84,9 @@ void force_batch_forces_scalar(ForceBatch& batch) {
   force_batch_forces_lanes<ScalarOps>(batch);
 }
 
-constexpr SimdKernels kScalarKernels = {svd3_batch_scalar,         damping_block_scalar,
-                                        damping_diagonal_scalar,   force_batch_gather_scalar,
-                                        force_batch_deform_scalar, force_batch_forces_scalar};
+constexpr SimdKernels kScalarKernels = {svd3_batch_scalar,        damping_gather_scalar,     damping_block_scalar,
+                                        damping_diagonal_scalar,  force_batch_gather_scalar, force_batch_deform_scalar,
+                                        force_batch_forces_scalar};
 
 SimdLevel widest_supported() {
   for (const SimdLevel level : {SimdLevel::avx512, SimdLevel::avx2, SimdLevel::sse2})
@@ -158,6 +162,10 @@ const SimdKernels& simd_kernels(SimdLevel level) {
 
 void svd3_batch(Svd3Batch& batch, SimdLevel level) {
   simd_kernels(level).svd3_batch(batch);
+}
+
+void damping_gather(const DampingSources& sources, int first, DampingLanes& lanes, SimdLevel level) {
+  simd_kernels(level).damping_gather(sources, first, lanes);
 }
 
 void damping_block(const DampingBlock& block, DampingLanes& lanes, SimdLevel level) {

@@ -251,6 +251,59 @@ TEST(Damping, OnePassForTwoVelocityFieldsGivesEachTheBitsOfItsOwnPass) {
   EXPECT_FALSE(alone_v == alone_w);  // two fields, two sets of forces
 }
 
+// The conjugate gradients' pass for their next direction z + β p reads it
+// as it gathers each corner: the bits of a pass for z + β p formed first,
+// on a body whose last block of eight is not full (the gathers of the full
+// blocks and the one-by-one reads of the last both), and at every
+// instruction-set level the gather itself gives the corners' values.
+TEST(Damping, ThePassForTheNextDirectionGivesTheBitsOfAPassForItFormedFirst) {
+  std::mt19937 rng(21);
+  Body body = make_cube(ElasticModel::fixed_corotated, 5);
+  ASSERT_NE(body.num_elements() % kDampingLanes, 0);
+  body.material.viscosity = 2.0;
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Points x = body.positions;
+  for (Index n = 0; n < body.num_nodes(); ++n)
+    for (int k = 0; k < 3; ++k) x(n, k) += 0.05 * u(rng);
+  ElasticForces forces;
+  Points f;
+  forces.evaluate(body, x, 0.0, f);
+  Damping damping;
+  damping.freeze(body, forces);
+  const Points z = Points::NullaryExpr(body.num_nodes(), 3, [&] { return u(rng); });
+  const Points p = Points::NullaryExpr(body.num_nodes(), 3, [&] { return u(rng); });
+  const double beta = 0.7303;
+  const Points formed = z + beta * p;
+  damping.element_pass(body, formed);
+  const std::vector<Eigen::Vector3d> expected = damping.corner_forces();
+  damping.element_pass(body, z, p, beta);
+  ASSERT_EQ(damping.corner_forces().size(), expected.size());
+  EXPECT_EQ(std::memcmp(damping.corner_forces().data(), expected.data(), sizeof(Eigen::Vector3d) * expected.size()), 0);
+
+  for (const SimdLevel level : {SimdLevel::scalar, SimdLevel::sse2, SimdLevel::avx2, SimdLevel::avx512}) {
+    if (!simd_level_supported(level)) continue;
+    int differing = 0;
+    for (Index first = 0; first + kDampingLanes <= body.num_elements(); first += kDampingLanes)
+      for (const bool next_direction : {false, true}) {
+        DampingSources sources;
+        sources.v = z.data();
+        sources.tets = body.tets.data();
+        if (next_direction) {
+          sources.p = p.data();
+          sources.beta = beta;
+        }
+        DampingLanes lanes{};
+        damping_gather(sources, first, lanes, level);
+        const Points& read = next_direction ? formed : z;
+        for (int lane = 0; lane < kDampingLanes; ++lane)
+          for (int c = 0; c < 4; ++c)
+            for (int i = 0; i < 3; ++i)
+              differing += std::memcmp(&lanes.v[c][i][lane], &read(body.tets(first + lane, c), i), sizeof(double)) != 0;
+      }
+    EXPECT_EQ(differing, 0) << simd_level_name(level);
+  }
+}
+
 TEST(Body, LumpedMassesAndIncidence) {
   Body body = make_cube(ElasticModel::fixed_corotated, 3);
   EXPECT_NEAR(body.masses.sum(), body.material.density * 1.0, 1e-12 * body.material.density);
