@@ -341,6 +341,14 @@ TEST(Damping, AFrozenOperatorIsRefusedForABodyItWasNotFrozenFor) {
   Body bigger = make_cube(ElasticModel::fixed_corotated, 3);
   EXPECT_TRUE(test::throws_error_containing([&] { damping.apply(bigger, Points::Zero(bigger.num_nodes(), 3), out); },
                                             "not frozen"));
+  // Frozen from a force evaluation, or from deformations, of another body's
+  // elements: refused, naming both counts.
+  EXPECT_TRUE(test::throws_error_containing([&] { damping.freeze(bigger, forces); },
+                                            "a force evaluation of 48 elements for a body of 162"));
+  const std::vector<Eigen::Matrix3d> identities(static_cast<std::size_t>(body.num_elements()),
+                                                Eigen::Matrix3d::Identity());
+  EXPECT_TRUE(test::throws_error_containing([&] { damping.freeze(bigger, identities, identities); },
+                                            "48 deformations for a body of 162 elements"));
   // Both passes go through the incidence (the forces write each corner's
   // force at its place in it, the damping's node sums read the corners it
   // lists): one that is not the elements' is refused, not written or read
