@@ -56,10 +56,9 @@ void Damping::check_frozen(const Body& body) const {
 
 namespace {
 
-/// A velocity field read entry by entry: a matrix of nodal velocities.
+/// A velocity field: a matrix of nodal velocities, as damping_gather reads it.
 struct NodalVelocities {
   const Points& v;
-  double operator()(Index node, int i) const { return v(node, i); }
   [[nodiscard]] DampingSources sources(const Tets& tets) const {
     DampingSources s;
     s.v = v.data();
@@ -68,12 +67,12 @@ struct NodalVelocities {
   }
 };
 
-/// z + β p entry by entry, as Eigen's z.row(n) + β p.row(n) rounds it.
+/// z + β p entry by entry, as Eigen's z.row(n) + β p.row(n) rounds it
+/// (damping_gather forms it as it reads the corners).
 struct NextDirection {
   const Points& z;
   const Points& p;
   double beta;
-  double operator()(Index node, int i) const { return z(node, i) + beta * p(node, i); }
   [[nodiscard]] DampingSources sources(const Tets& tets) const {
     DampingSources s;
     s.v = z.data();
@@ -143,15 +142,7 @@ void Damping::element_loop(const Body& body, const Velocity& velocity, const Sec
         auto block_forces = [&](Index b, const auto& x, std::vector<Eigen::Vector3d>& out) {
           const Index first = b * kDampingLanes;
           const int count = static_cast<int>(std::min<Index>(kDampingLanes, ne - first));
-          if (count == kDampingLanes) {
-            damping_gather(x.sources(body.tets), first, lanes, level);
-          } else {
-            for (int lane = 0; lane < count; ++lane)
-              for (int c = 0; c < 4; ++c) {
-                const Index node = body.tets(first + lane, c);
-                for (int i = 0; i < 3; ++i) lanes.v[c][i][lane] = x(node, i);
-              }
-          }
+          damping_gather(x.sources(body.tets), first, count, lanes, level);
           damping_block(frozen_blocks()[at(b)], lanes, level);
           // Each element's four side by side: the node sums read them
           // scattered. (Written at each node's place in the incidence,

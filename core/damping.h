@@ -88,7 +88,8 @@ class Damping {
   /// The element loop of apply and element_pass. (apply keeps TBB's
   /// default split: BM_DampingApply/12/2 took 0.17 ms with the static one,
   /// 0.11 ms without, its calling thread left waiting for a late worker.)
-  /// `velocity(node, i)` is component i of the node's velocity; with
+  /// `velocity.sources(tets)` says where damping_gather reads the
+  /// corners' velocities (core/damping_batch.h); with
   /// `second`, a second field's forces too (into second_corner_forces_);
   /// with `corner_blocks`, the corners' blocks of C (into element_blocks_).
   template <class Partitioner, class Velocity, class Second>

@@ -33,11 +33,11 @@ struct DampingSources {
   const int* tets = nullptr;  ///< #E×4 node indices, row by row
 };
 
-/// The corner velocities of elements first … first + kDampingLanes − 1 (all
-/// of them in `sources`; 4 (first + kDampingLanes) must fit an int) into
-/// lanes.v, each v + β p as (v + (β p)) when p is given: the processor's
-/// gathers where it has them.
-void damping_gather(const DampingSources& sources, int first, DampingLanes& lanes, SimdLevel level);
+/// The corner velocities of elements first … first + count − 1 (count ≤
+/// kDampingLanes; 4 (first + kDampingLanes) must fit an int) into lanes.v's
+/// first `count` lanes, each v + β p as (v + (β p)) when p is given, the
+/// processor's gathers where it has them; the lanes past them zero.
+void damping_gather(const DampingSources& sources, int first, int count, DampingLanes& lanes, SimdLevel level);
 
 /// f = −C_e v for every lane of the block at `level` (which must be
 /// supported).

@@ -12,12 +12,28 @@
 namespace goo::lanes {
 namespace {  // NOLINT(cert-dcl59-cpp, google-build-namespaces): see lanes.h
 
-/// damping_gather, Ops::kWidth lanes at a time.
+/// damping_gather, Ops::kWidth lanes at a time (a group the count ends in
+/// one lane at a time).
 template <class Ops>
-inline void damping_gather_lanes(const DampingSources& s, int first, DampingLanes& out) {
+inline void damping_gather_lanes(const DampingSources& s, int first, int count, DampingLanes& out) {
   using R = typename Ops::R;
   constexpr int width = Ops::kWidth;
   for (int lane = 0; lane < kDampingLanes; lane += width) {
+    if (lane + width > count) {
+      for (int k = lane; k < lane + width; ++k)
+        for (int c = 0; c < 4; ++c) {
+          const int node = k < count ? s.tets[4 * (first + k) + c] : 0;
+          for (int i = 0; i < 3; ++i) {
+            double v = 0.0;
+            if (k < count) {
+              v = s.v[3 * node + i];
+              if (s.p != nullptr) v = v + s.beta * s.p[3 * node + i];
+            }
+            out.v[c][i][k] = v;
+          }
+        }
+      continue;
+    }
     int node[4][sizeof(R) / sizeof(double)], index[sizeof(R) / sizeof(double)];  // width each
     for (int c = 0; c < 4; ++c)
       for (int k = 0; k < width; ++k) node[c][k] = s.tets[4 * (first + lane + k) + c];

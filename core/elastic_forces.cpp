@@ -44,39 +44,6 @@ ForceSources force_sources(const Body& body, const Points& x) {
   return sources;
 }
 
-/// force_batch_gather's values for a batch of `lanes` < kSvdLanes elements
-/// from `first`, one element at a time; a lane past the last element holds
-/// the unit tetrahedron at rest, of no volume.
-void gather_last_batch(const Body& body, const Points& x, Index first, int lanes, ForceBatch& b) {
-  for (int lane = 0; lane < lanes; ++lane) {
-    const Index e = first + lane;
-    double m_min = body.masses[body.tets(e, 0)];
-    for (int c = 0; c < 4; ++c) {
-      const Index n = body.tets(e, c);
-      for (int i = 0; i < 3; ++i) b.x[c][i][lane] = x(n, i);
-      m_min = std::min(m_min, body.masses[n]);
-    }
-    for (int k = 0; k < 9; ++k) {
-      b.Dm_inv[k][lane] = body.Dm_inv[at(e)].data()[k];
-      b.Fp[k][lane] = body.Fp[at(e)].data()[k];
-    }
-    b.rest_volume[lane] = body.rest_volumes[e];
-    b.least_mass[lane] = m_min;
-  }
-  for (int lane = lanes; lane < kSvdLanes; ++lane) {
-    for (int c = 0; c < 4; ++c)
-      for (int i = 0; i < 3; ++i) b.x[c][i][lane] = c == i + 1 ? 1.0 : 0.0;
-    for (int k = 0; k < 9; ++k) {
-      const double identity = k % 4 == 0 ? 1.0 : 0.0;
-      b.Dm_inv[k][lane] = identity;
-      b.Fp[k][lane] = identity;
-    }
-    for (int k = 0; k < 3; ++k) b.dpsi[k][lane] = 0.0;
-    b.rest_volume[lane] = 0.0;
-    b.least_mass[lane] = 1.0;
-  }
-}
-
 }  // namespace
 
 void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Points& f) {
@@ -169,10 +136,7 @@ void ElasticForces::evaluate(Body& body, const Points& x, double plastic_dt, Poi
         for (Index batch = range.begin(); batch != range.end(); ++batch) {
           const Index first = batch * kSvdLanes;
           const int lanes = static_cast<int>(std::min<Index>(kSvdLanes, ne - first));
-          if (lanes == kSvdLanes)
-            force_batch_gather(sources, first, b, level);
-          else
-            gather_last_batch(body, x, first, lanes, b);
+          force_batch_gather(sources, first, lanes, b, level);
           force_batch_deform(b, level);
           if (plastic || model.stress == LaneStress::given) flow_and_stress(b, first, lanes);
           force_batch_forces(b, level);

@@ -37,7 +37,7 @@ struct alignas(64) ForceBatch {
   double Fp_inv[9][kSvdLanes];
   // F = Ds Dm⁻¹ Fp⁻¹ and its U, σ, V (σ in to force_batch_forces, after flow).
   Svd3Batch svd;
-  // ∂ψ/∂σ: in to force_batch_forces if model.stress is `given`, else out.
+  // ∂ψ/∂σ: in to force_batch_forces if model.stress is `given` (else unused).
   double dpsi[3][kSvdLanes];
   // Out: the forces on the four corners, Fe = U diag(σ) Vᵀ, the squared
   // stability bound m_min / k_e (ElasticForces::critical_time_step), and
@@ -60,10 +60,12 @@ struct ForceSources {
   const double* rest_volumes = nullptr;  ///< #E
 };
 
-/// Elements first … first + kSvdLanes − 1 (all of them in `sources`; 9 (first
-/// + kSvdLanes) must fit an int) into the batch's x, Dm_inv, Fp, rest_volume
-/// and least_mass: the processor's gathers where it has them.
-void force_batch_gather(const ForceSources& sources, int first, ForceBatch& batch, SimdLevel level);
+/// Elements first … first + count − 1 (count ≤ kSvdLanes; 9 (first +
+/// kSvdLanes) must fit an int) into the first `count` lanes of the batch's
+/// x, Dm_inv, Fp, rest_volume and least_mass, the processor's gathers where
+/// it has them; a lane past them holds the unit tetrahedron at rest, of no
+/// volume (and ∂ψ/∂σ zero).
+void force_batch_gather(const ForceSources& sources, int first, int count, ForceBatch& batch, SimdLevel level);
 
 /// Fp⁻¹, then Fe = Ds Dm⁻¹ Fp⁻¹ into svd.F and its SVD.
 void force_batch_deform(ForceBatch& batch, SimdLevel level);

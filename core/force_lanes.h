@@ -60,22 +60,55 @@ inline void element_forces(const Mat3<R>& U, const R sigma[3], const Mat3<R>& V,
   Fe = product_transposed_into_memory(scaled_columns(U, sigma), V);  // kept per element
 }
 
-/// force_batch_gather, Ops::kWidth lanes at a time: each corner's node, its
-/// position and mass (the least of the four kept as std::min keeps it),
-/// the element's Dm⁻¹, Fp and W.
+/// One lane of force_batch_gather: element e's, or (e < 0) the unit
+/// tetrahedron at rest, of no volume.
+inline void force_gather_lane(const ForceSources& s, int e, ForceBatch& b, int lane) {
+  if (e < 0) {
+    for (int c = 0; c < 4; ++c)
+      for (int i = 0; i < 3; ++i) b.x[c][i][lane] = c == i + 1 ? 1.0 : 0.0;
+    for (int k = 0; k < 9; ++k) b.Dm_inv[k][lane] = b.Fp[k][lane] = k % 4 == 0 ? 1.0 : 0.0;
+    for (int k = 0; k < 3; ++k) b.dpsi[k][lane] = 0.0;
+    b.rest_volume[lane] = 0.0;
+    b.least_mass[lane] = 1.0;
+    return;
+  }
+  double least = s.masses[s.tets[4 * e]];
+  for (int c = 0; c < 4; ++c) {
+    const int node = s.tets[4 * e + c];
+    for (int i = 0; i < 3; ++i) b.x[c][i][lane] = s.x[3 * node + i];
+    if (s.masses[node] < least) least = s.masses[node];  // std::min's choice
+  }
+  for (int k = 0; k < 9; ++k) {
+    b.Dm_inv[k][lane] = s.Dm_inv[9 * e + k];
+    b.Fp[k][lane] = s.Fp[9 * e + k];
+  }
+  b.rest_volume[lane] = s.rest_volumes[e];
+  b.least_mass[lane] = least;
+}
+
+/// force_batch_gather, Ops::kWidth lanes at a time (a group the count ends
+/// in one lane at a time): each corner's node, its position and mass (the
+/// least of the four kept as std::min keeps it), the element's Dm⁻¹, Fp
+/// and W.
 template <class Ops>
-inline void force_batch_gather_lanes(const ForceSources& s, int first, ForceBatch& b) {
+inline void force_batch_gather_lanes(const ForceSources& s, int first, int count, ForceBatch& b) {
   using R = typename Ops::R;
   constexpr int width = Ops::kWidth;
   for (int lane = 0; lane < kSvdLanes; lane += width) {
     const int e = first + lane;
+    if (lane + width > count) {
+      for (int k = lane; k < lane + width; ++k) force_gather_lane(s, k < count ? first + k : -1, b, k);
+      continue;
+    }
     int node[4][sizeof(R) / sizeof(double)], index[sizeof(R) / sizeof(double)];  // width each
     for (int c = 0; c < 4; ++c)
       for (int k = 0; k < width; ++k) node[c][k] = s.tets[4 * (e + k) + c];
     R least = Ops::gather(s.masses, node[0]);
-    for (int c = 0; c < 4; ++c) {
+    for (int c = 1; c < 4; ++c) {
       const R mass = Ops::gather(s.masses, node[c]);
       least = Ops::select(mass < least, mass, least);
+    }
+    for (int c = 0; c < 4; ++c) {
       for (int i = 0; i < 3; ++i) {
         for (int k = 0; k < width; ++k) index[k] = 3 * node[c][k] + i;
         Ops::store(&b.x[c][i][lane], Ops::gather(s.x, index));
@@ -171,7 +204,6 @@ inline void force_batch_forces_lanes(ForceBatch& b) {
       for (int k = 0; k < 3; ++k) dpsi[k] = Ops::load(&b.dpsi[k][first]);
     } else {
       polynomial_dpsi(model, sigma, dpsi);
-      for (int k = 0; k < 3; ++k) Ops::store(&b.dpsi[k][first], dpsi[k]);
     }
     const R rest_volume = Ops::load(&b.rest_volume[first]);
     const R volume = rest_volume * determinant(Fp);

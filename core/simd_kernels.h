@@ -10,10 +10,10 @@ namespace goo {
 
 struct SimdKernels {
   void (*svd3_batch)(Svd3Batch& batch);
-  void (*damping_gather)(const DampingSources& sources, int first, DampingLanes& lanes);
+  void (*damping_gather)(const DampingSources& sources, int first, int count, DampingLanes& lanes);
   void (*damping_block)(const DampingBlock& block, DampingLanes& lanes);
   void (*damping_diagonal)(const DampingBlock& block, DampingDiagonal& out);
-  void (*force_batch_gather)(const ForceSources& sources, int first, ForceBatch& batch);
+  void (*force_batch_gather)(const ForceSources& sources, int first, int count, ForceBatch& batch);
   void (*force_batch_deform)(ForceBatch& batch);
   void (*force_batch_forces)(ForceBatch& batch);
 };

@@ -171,8 +171,8 @@ inline void svd3_batch_vector(Svd3Batch& batch) {
   }
 }
 
-inline void damping_gather_vector(const DampingSources& sources, int first, DampingLanes& lanes) {
-  damping_gather_lanes<VectorOps>(sources, first, lanes);
+inline void damping_gather_vector(const DampingSources& sources, int first, int count, DampingLanes& lanes) {
+  damping_gather_lanes<VectorOps>(sources, first, count, lanes);
 }
 
 /// The damping block kWidth lanes at a time.
@@ -212,8 +212,8 @@ inline void damping_diagonal_vector(const DampingBlock& block, DampingDiagonal& 
   }
 }
 
-inline void force_batch_gather_vector(const ForceSources& sources, int first, ForceBatch& batch) {
-  force_batch_gather_lanes<VectorOps>(sources, first, batch);
+inline void force_batch_gather_vector(const ForceSources& sources, int first, int count, ForceBatch& batch) {
+  force_batch_gather_lanes<VectorOps>(sources, first, count, batch);
 }
 
 inline void force_batch_deform_vector(ForceBatch& batch) {

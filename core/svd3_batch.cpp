@@ -37,8 +37,8 @@ void svd3_batch_scalar(Svd3Batch& batch) {
   }
 }
 
-void damping_gather_scalar(const DampingSources& sources, int first, DampingLanes& lanes) {
-  damping_gather_lanes<ScalarOps>(sources, first, lanes);
+void damping_gather_scalar(const DampingSources& sources, int first, int count, DampingLanes& lanes) {
+  damping_gather_lanes<ScalarOps>(sources, first, count, lanes);
 }
 
 void damping_block_scalar(const DampingBlock& block, DampingLanes& batch) {
@@ -71,8 +71,8 @@ void damping_diagonal_scalar(const DampingBlock& block, DampingDiagonal& out) {
   }
 }
 
-void force_batch_gather_scalar(const ForceSources& sources, int first, ForceBatch& batch) {
-  force_batch_gather_lanes<ScalarOps>(sources, first, batch);
+void force_batch_gather_scalar(const ForceSources& sources, int first, int count, ForceBatch& batch) {
+  force_batch_gather_lanes<ScalarOps>(sources, first, count, batch);
 }
 
 void force_batch_deform_scalar(ForceBatch& batch) {
@@ -164,8 +164,8 @@ void svd3_batch(Svd3Batch& batch, SimdLevel level) {
   simd_kernels(level).svd3_batch(batch);
 }
 
-void damping_gather(const DampingSources& sources, int first, DampingLanes& lanes, SimdLevel level) {
-  simd_kernels(level).damping_gather(sources, first, lanes);
+void damping_gather(const DampingSources& sources, int first, int count, DampingLanes& lanes, SimdLevel level) {
+  simd_kernels(level).damping_gather(sources, first, count, lanes);
 }
 
 void damping_block(const DampingBlock& block, DampingLanes& lanes, SimdLevel level) {
@@ -176,8 +176,8 @@ void damping_diagonal(const DampingBlock& block, DampingDiagonal& out, SimdLevel
   simd_kernels(level).damping_diagonal(block, out);
 }
 
-void force_batch_gather(const ForceSources& sources, int first, ForceBatch& batch, SimdLevel level) {
-  simd_kernels(level).force_batch_gather(sources, first, batch);
+void force_batch_gather(const ForceSources& sources, int first, int count, ForceBatch& batch, SimdLevel level) {
+  simd_kernels(level).force_batch_gather(sources, first, count, batch);
 }
 
 void force_batch_deform(ForceBatch& batch, SimdLevel level) {
