@@ -646,4 +646,51 @@ UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSetting
   return report;
 }
 
+void order_surface(TriangleMesh& surface, double h) {
+  const Index nv = surface.num_vertices(), nt = surface.num_triangles();
+  if (nv == 0) return;
+  if (!(h > 0.0) || !surface.vertices.allFinite())
+    throw Error("surface order: the spacing must be positive and every vertex finite");
+  // Cells of h / 16 from the surface's lower corner, 21 bits an axis (past
+  // 2²¹ cells, 2²¹ · h / 16 ≈ 1.3 · 10⁵ h, the last cell).
+  const Eigen::RowVector3d lo = surface.vertices.colwise().minCoeff();
+  const double per_cell = 16.0 / h;
+  constexpr double kLast = double((1u << 21) - 1);
+  std::vector<std::uint64_t> code(at(nv));
+  for_each_index(nv, [&](Index v) {
+    std::uint64_t c = 0;
+    std::array<std::uint32_t, 3> cell{};
+    for (int k = 0; k < 3; ++k)
+      cell[at(k)] =
+          static_cast<std::uint32_t>(std::min(kLast, std::floor((surface.vertices(v, k) - lo[k]) * per_cell)));
+    for (int bit = 20; bit >= 0; --bit)
+      for (int k = 2; k >= 0; --k) c = (c << 1) | ((cell[at(k)] >> bit) & 1u);
+    code[at(v)] = c;
+  });
+  std::vector<Index> order(at(nv));
+  for (Index v = 0; v < nv; ++v) order[at(v)] = v;
+  std::sort(order.begin(), order.end(), [&](Index a, Index b) {
+    if (code[at(a)] != code[at(b)]) return code[at(a)] < code[at(b)];
+    for (int k = 0; k < 3; ++k)
+      if (surface.vertices(a, k) != surface.vertices(b, k)) return surface.vertices(a, k) < surface.vertices(b, k);
+    return a < b;
+  });
+  std::vector<Index> renumbered(at(nv));
+  Points vertices(nv, 3);
+  for (Index i = 0; i < nv; ++i) {
+    renumbered[at(order[at(i)])] = i;
+    vertices.row(i) = surface.vertices.row(order[at(i)]);
+  }
+  std::vector<std::array<Index, 4>> keyed(at(nt));  // lowest corner, then the corners in their order
+  for (Index t = 0; t < nt; ++t) {
+    std::array<Index, 4>& k = keyed[at(t)];
+    for (int c = 0; c < 3; ++c) k[at(c) + 1] = renumbered[at(surface.triangles(t, c))];
+    k[0] = std::min({k[1], k[2], k[3]});
+  }
+  std::sort(keyed.begin(), keyed.end());
+  surface.vertices = std::move(vertices);
+  for (Index t = 0; t < nt; ++t)
+    for (int c = 0; c < 3; ++c) surface.triangles(t, c) = keyed[at(t)][at(c) + 1];
+}
+
 }  // namespace goo

@@ -45,4 +45,17 @@ struct UpkeepReport {
 UpkeepReport upkeep_surface(TriangleMesh& surface, double h, const UpkeepSettings& settings = {},
                             const TriangleMesh* blockers = nullptr);
 
+/// Renumbers the surface in space order, the same surface: its vertices
+/// along a Morton curve through cells of h / 16 (ties, within a cell, by
+/// their coordinates, then by their old number), its triangles by their
+/// lowest vertex, then their corners, each keeping its corners' order (and
+/// so its orientation). Splits append their vertices and triangles at the
+/// end and collapses remove them anywhere, so after many re-meshes a
+/// surface's neighbours lie far apart in its arrays; every pass over the
+/// surface (the self-collision lists, the embedding, the measurements)
+/// then reads memory out of order. The order depends on the geometry only:
+/// a shuffled copy of a surface orders to the same surface, bit for bit
+/// (unless two vertices coincide).
+void order_surface(TriangleMesh& surface, double h);
+
 }  // namespace goo

@@ -301,6 +301,10 @@ MeshedBody remesh(const Body& old, const TriangleMesh& current, double h, Remesh
     upkept = current;
     const UpkeepReport done = upkeep_surface(upkept, h, *upkeep, others);
     if (report) report->upkeep = done;
+    // A surface the upkeep changed is numbered in space order again (its
+    // splits appended vertices and triangles at the end); one it left
+    // alone keeps its numbering.
+    if (done.splits + done.collapses + done.flips > 0) order_surface(upkept, h);
   }
   times.upkeep = timer.lap();
   const TriangleMesh& surface = upkeep ? upkept : current;

@@ -8,6 +8,7 @@
 #include "core/elastic_forces.h"
 #include "core/primitives.h"
 #include "core/surface_geometry.h"
+#include "meshing/surface_upkeep.h"
 #include "meshing/transfer.h"
 #include "solvers/newmark.h"
 #include "solvers/remesh.h"
@@ -290,6 +291,14 @@ TEST(Remesh, SplitsLongSurfaceEdgesFirst) {
   const SurfaceIntegrals a = surface_integrals(surface), b = surface_integrals(mb.surface());
   EXPECT_NEAR(b.volume, a.volume, 1e-12 * a.volume + report.upkeep.volume_change_bound);
   EXPECT_NEAR(mb.body.masses.sum(), old.body.masses.sum(), 1e-13 * old.body.masses.sum());
+  // The upkept surface is embedded numbered in space order (order_surface).
+  TriangleMesh upkept = surface;
+  upkeep_surface(upkept, 0.1, upkeep);
+  TriangleMesh ordered = upkept;
+  order_surface(ordered, 0.1);
+  EXPECT_NE(ordered.triangles, upkept.triangles);
+  EXPECT_EQ(mb.body.surface_triangles, ordered.triangles);
+  EXPECT_TRUE(test::matrices_near(mb.surface().vertices, ordered.vertices, 1e-12));
 }
 
 TEST(Remesh, SameBitsForAnyThreadCount) {
