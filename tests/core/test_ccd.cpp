@@ -145,5 +145,43 @@ TEST(BoxPairs, EveryOverlappingPairOnceAndNoneOfOneGroup) {
   }
 }
 
+// Boxes with corners on a grid of 1/32 touch one another exactly, face,
+// edge or corner, in hundreds of pairs: closed boxes, touching counts
+// (every one of the six tests is ≤, in the vector lanes and the scalar
+// tail alike). And two sets paired across (a box of `a` with a box of
+// `b`), against all pairs.
+TEST(BoxPairs, TouchingBoxesMeetAndTwoSetsPairAcross) {
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> place(0, 31), size(1, 4);
+  auto boxes = [&](int count) {
+    std::vector<Box3> out;
+    for (int i = 0; i < count; ++i) {
+      const Eigen::Vector3d lo(place(rng), place(rng), place(rng));
+      out.emplace_back(lo / 32.0, (lo + Eigen::Vector3d(size(rng), size(rng), size(rng))) / 32.0);
+    }
+    return out;
+  };
+  const std::vector<Box3> a = boxes(501), b = boxes(300);
+  std::vector<std::array<Index, 2>> expected, touching;
+  for (Index i = 0; i < 501; ++i)
+    for (Index j = i + 1; j < 501; ++j) {
+      const Box3 &p = a[static_cast<std::size_t>(i)], &q = a[static_cast<std::size_t>(j)];
+      if (!p.intersects(q)) continue;
+      expected.push_back({i, j});
+      if (p.intersection(q).volume() == 0.0) touching.push_back({i, j});
+    }
+  std::vector<std::array<Index, 2>> found = overlapping_pairs(a);
+  std::sort(found.begin(), found.end());
+  EXPECT_EQ(found, expected);
+  EXPECT_GT(touching.size(), 300u);
+  std::vector<std::array<Index, 2>> across;
+  for (Index i = 0; i < 501; ++i)
+    for (Index j = 0; j < 300; ++j)
+      if (a[static_cast<std::size_t>(i)].intersects(b[static_cast<std::size_t>(j)])) across.push_back({i, j});
+  found = overlapping_pairs(a, b);
+  std::sort(found.begin(), found.end());
+  EXPECT_EQ(found, across);
+}
+
 }  // namespace
 }  // namespace goo::ccd
