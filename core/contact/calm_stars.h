@@ -76,6 +76,10 @@ class CalmStars {
   /// and their ratios.
   [[nodiscard]] const std::vector<std::array<Index, 2>>& near_pairs() const { return near_; }
   [[nodiscard]] const std::vector<double>& near_ratios() const { return near_ratio_; }
+  /// The near pairs' indices by ratio, largest first, then by index: the
+  /// order in which a group's near pairs are returned (newly_unsafe stops
+  /// at the first whose κ × ratio is safe, so every later one must be too).
+  [[nodiscard]] const std::vector<Index>& near_order() const { return near_order_; }
   /// Per triangle, the eligible stars holding all its corners (−1: none;
   /// valid after update_surface): two triangles can join one group only
   /// if they have one in common.

@@ -717,6 +717,7 @@ TEST(CalmStars, TheNearPairsAreExactlyThoseWithAPrimitivePairAboveTheRatio) {
   // update_surface measures only the pairs its grown boxes find, and of
   // those only the primitive pairs a bound cannot clear: this fails if the
   // boxes miss a near pair or the bound clears one.
+  std::size_t ties = 0;  // equal ratios, in either case
   for (const double gap : {0.004, 0.02}) {
     SCOPED_TRACE(gap);
     Body body = stacked_boxes(gap, 0.1, 12);
@@ -758,11 +759,27 @@ TEST(CalmStars, TheNearPairsAreExactlyThoseWithAPrimitivePairAboveTheRatio) {
     EXPECT_GT(pairs.size(), 10000u);
     EXPECT_EQ(missed, 0u);
     EXPECT_EQ(wrong, 0u);
+    // Ordered by ratio, largest first, then by index: a permutation of the
+    // near pairs in which no ratio is above the one before it.
+    const std::vector<Index>& order = stars.near_order();
+    ASSERT_EQ(order.size(), stars.near_pairs().size());
+    std::vector<Index> sorted = order;
+    std::sort(sorted.begin(), sorted.end());
+    for (std::size_t i = 0; i < sorted.size(); ++i) ASSERT_EQ(sorted[i], static_cast<Index>(i));
+    for (std::size_t i = 1; i < order.size(); ++i) {
+      const double before = stars.near_ratios()[at(order[i - 1])], now = stars.near_ratios()[at(order[i])];
+      EXPECT_FALSE(now > before) << "place " << i;
+      if (now == before) {
+        ++ties;
+        EXPECT_LT(order[i - 1], order[i]) << "place " << i;
+      }
+    }
     EXPECT_EQ(found.size(), near);
     if (gap == 0.004) {
       EXPECT_GT(near, 100u);  // the facing sheets' pairs
     }
   }
+  EXPECT_GT(ties, 0u);
 }
 
 TEST(SelfCollisions, ABodyWithAnInvertedElementIsLeftToTurnBack) {
