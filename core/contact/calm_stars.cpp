@@ -325,8 +325,8 @@ void CalmStars::update_surface(const Body& body, const std::vector<Index>& eleme
   // A radix sort by the ratio's bits, complemented (a positive double's
   // bits, read as an integer, grow with it; the ratios are above kRatio or
   // +∞, never NaN: std::max keeps the ratio so far against a NaN), stable:
-  // the order of the comparison (ratio descending, then index) at a tenth
-  // of std::sort's cost (200k near pairs: 27 ms).
+  // the order of the comparison (ratio descending, then index) at a fifth
+  // of std::sort's cost (the armadillo's 200k near pairs: 27 → 5–6 ms).
   std::iota(near_order_.begin(), near_order_.end(), Index{0});
   radix_sort(near_order_, [&](Index i) { return ~std::bit_cast<std::uint64_t>(near_ratio_[at(i)]); });
 }
