@@ -1,7 +1,9 @@
 #include "meshing/lattice_slicing.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <optional>
 
@@ -58,6 +60,20 @@ std::pair<double, double> extent(const Family& family, It begin, It end) {
   return {lo, hi};
 }
 
+/// The crossings of one split by edge (lo × Piece::kVertices + hi): valid
+/// where stamped with the split's generation.
+struct CrossingTable {
+  std::array<std::uint32_t, Piece::kVertices * Piece::kVertices> stamp{};
+  std::array<std::uint8_t, Piece::kVertices * Piece::kVertices> index{};
+  std::uint32_t generation = 0;
+  void next() {
+    if (++generation == 0) {  // wrapped: every stamp is stale again
+      stamp.fill(0);
+      generation = 1;
+    }
+  }
+};
+
 /// Splits `in` by the plane s = k into `below` (s ≤ k) and `above` (s ≥ k),
 /// each closed by the cut as a new face. Distances within `tolerance` count
 /// as on the plane (such a vertex goes to both parts); a face lying on it is
@@ -90,15 +106,22 @@ void split(const Piece& in, const Family& family, double k, double tolerance, Pi
   };
   std::array<Crossing, Piece::kVertices> crossings;
   int num_crossings = 0;
+  // Each edge's crossing is found again from its other face: looked up by
+  // the edge in a table stamped per split (no clearing).
+  thread_local CrossingTable table;
+  table.next();
   auto crossing = [&](std::uint8_t i, std::uint8_t j) -> Crossing {
     const std::uint8_t lo = std::min(i, j), hi = std::max(i, j);
-    for (int c = 0; c < num_crossings; ++c)
-      if (crossings[static_cast<std::size_t>(c)].lo == lo && crossings[static_cast<std::size_t>(c)].hi == hi)
-        return crossings[static_cast<std::size_t>(c)];
+    const std::size_t key = std::size_t{lo} * Piece::kVertices + hi;
+    if (table.stamp[key] == table.generation) return crossings[table.index[key]];
     const double dl = d[lo], dh = d[hi];
     const Eigen::Vector3d x = in.v[lo] + (in.v[hi] - in.v[lo]) * (dl / (dl - dh));
     const Crossing made = {lo, hi, add(below, x), add(above, x)};
-    if (num_crossings < Piece::kVertices) crossings[static_cast<std::size_t>(num_crossings++)] = made;
+    if (num_crossings < Piece::kVertices) {
+      table.stamp[key] = table.generation;
+      table.index[key] = static_cast<std::uint8_t>(num_crossings);
+      crossings[static_cast<std::size_t>(num_crossings++)] = made;
+    }
     if (cut_size < Piece::kVertices) cut[static_cast<std::size_t>(cut_size++)] = {made.below, made.above};
     return made;
   };
@@ -116,7 +139,8 @@ void split(const Piece& in, const Family& family, double k, double tolerance, Pi
     below.face_size[static_cast<std::size_t>(below.num_faces)] = 0;
     above.face_size[static_cast<std::size_t>(above.num_faces)] = 0;
     for (int i = 0; i < n; ++i) {
-      const std::uint8_t a = face[static_cast<std::size_t>(i)], b = face[static_cast<std::size_t>((i + 1) % n)];
+      const std::uint8_t a = face[static_cast<std::size_t>(i)],
+                         b = face[static_cast<std::size_t>(i + 1 < n ? i + 1 : 0)];
       if (d[a] <= 0.0) push(below, to_below[a]);
       if (d[a] >= 0.0) push(above, to_above[a]);
       if ((d[a] < 0.0 && d[b] > 0.0) || (d[a] > 0.0 && d[b] < 0.0)) {
@@ -135,7 +159,12 @@ void split(const Piece& in, const Family& family, double k, double tolerance, Pi
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (int i = 0; i < cut_size; ++i) centre += below.v[cut[static_cast<std::size_t>(i)][0]];
   centre /= static_cast<double>(cut_size);
-  std::array<std::pair<double, int>, Piece::kVertices> around;
+  struct Around {  // no initialisers: only the cut's first cut_size are written and read
+    double angle;
+    int index;
+    bool operator<(const Around& o) const { return angle < o.angle || (angle == o.angle && index < o.index); }
+  };
+  std::array<Around, Piece::kVertices> around;
   for (int i = 0; i < cut_size; ++i) {
     const Eigen::Vector3d r = below.v[cut[static_cast<std::size_t>(i)][0]] - centre;
     const double x = r.dot(family.e1), y = r.dot(family.e2);
@@ -148,13 +177,13 @@ void split(const Piece& in, const Family& family, double k, double tolerance, Pi
     const auto f = static_cast<std::size_t>(below.num_faces++);
     below.face_size[f] = 0;
     for (int i = 0; i < cut_size && below.face_size[f] < Piece::kFaceVertices; ++i)
-      below.face[f][below.face_size[f]++] = cut[static_cast<std::size_t>(around[static_cast<std::size_t>(i)].second)][0];
+      below.face[f][below.face_size[f]++] = cut[static_cast<std::size_t>(around[static_cast<std::size_t>(i)].index)][0];
   }
   if (above.num_faces < Piece::kFaces) {
     const auto f = static_cast<std::size_t>(above.num_faces++);
     above.face_size[f] = 0;
     for (int i = cut_size - 1; i >= 0 && above.face_size[f] < Piece::kFaceVertices; --i)
-      above.face[f][above.face_size[f]++] = cut[static_cast<std::size_t>(around[static_cast<std::size_t>(i)].second)][1];
+      above.face[f][above.face_size[f]++] = cut[static_cast<std::size_t>(around[static_cast<std::size_t>(i)].index)][1];
   }
 }
 
@@ -300,7 +329,7 @@ void LatticeSlicer::polygon_parts(const BccLattice& lattice, const Polygon& poly
           d[static_cast<std::size_t>(i)] = std::abs(di) <= tolerance ? 0.0 : di;
         }
         for (int i = 0; i < piece.size; ++i) {
-          const auto a = static_cast<std::size_t>(i), b = static_cast<std::size_t>((i + 1) % piece.size);
+          const auto a = static_cast<std::size_t>(i), b = static_cast<std::size_t>(i + 1 < piece.size ? i + 1 : 0);
           if (d[a] <= 0.0) push(below, piece.v[a]);
           if (d[a] >= 0.0) push(above, piece.v[a]);
           if ((d[a] < 0.0 && d[b] > 0.0) || (d[a] > 0.0 && d[b] < 0.0)) {
