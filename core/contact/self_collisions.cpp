@@ -244,7 +244,7 @@ bool stays_positive(const Body& body, const Points& x0, const Points& d, Index e
   };
   const double c0 = D.determinant(), c1 = (adjugate(D) * E).trace(), c2 = (D * adjugate(E)).trace(),
                c3 = E.determinant();
-  const double scale = std::pow(D.norm() + E.norm(), 3);
+  const double size = D.norm() + E.norm(), scale = size * size * size;
   const double floor = 1e3 * 64.0 * std::numeric_limits<double>::epsilon() * scale;
   auto p = [&](double t) { return c0 + t * (c1 + t * (c2 + t * c3)); };
   double least = std::min(p(0.0), p(1.0));
