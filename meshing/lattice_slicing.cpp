@@ -60,26 +60,15 @@ std::pair<double, double> extent(const Family& family, It begin, It end) {
   return {lo, hi};
 }
 
-/// The crossings of one split by edge (lo × Piece::kVertices + hi): valid
-/// where stamped with the split's generation.
-struct CrossingTable {
-  std::array<std::uint32_t, Piece::kVertices * Piece::kVertices> stamp{};
-  std::array<std::uint8_t, Piece::kVertices * Piece::kVertices> index{};
-  std::uint32_t generation = 0;
-  void next() {
-    if (++generation == 0) {  // wrapped: every stamp is stale again
-      stamp.fill(0);
-      generation = 1;
-    }
-  }
-};
-
 /// Splits `in` by the plane s = k into `below` (s ≤ k) and `above` (s ≥ k),
 /// each closed by the cut as a new face. Distances within `tolerance` count
 /// as on the plane (such a vertex goes to both parts); a face lying on it is
 /// dropped (the cut replaces it). Each vertex's distance and each edge's
-/// crossing are computed once, for all the faces that share them.
-void split(const Piece& in, const Family& family, double k, double tolerance, Piece& below, Piece& above) {
+/// crossing are computed once, for all the faces that share them (the
+/// crossings found again through `table`, the slicer's, reused split to
+/// split).
+void split(const Piece& in, const Family& family, double k, double tolerance, Piece& below, Piece& above,
+           LatticeSlicer::Crossings& table) {
   constexpr std::uint8_t kNone = 0xff;
   below.num_vertices = above.num_vertices = below.num_faces = above.num_faces = 0;
   std::array<double, Piece::kVertices> d;
@@ -107,8 +96,7 @@ void split(const Piece& in, const Family& family, double k, double tolerance, Pi
   std::array<Crossing, Piece::kVertices> crossings;
   int num_crossings = 0;
   // Each edge's crossing is found again from its other face: looked up by
-  // the edge in a table stamped per split (no clearing).
-  thread_local CrossingTable table;
+  // the edge (LatticeSlicer::Crossings).
   table.next();
   auto crossing = [&](std::uint8_t i, std::uint8_t j) -> Crossing {
     const std::uint8_t lo = std::min(i, j), hi = std::max(i, j);
@@ -254,7 +242,7 @@ void LatticeSlicer::overlaps(const BccLattice& lattice, const std::array<Eigen::
         }
         reserve(2);  // before taking references into the pool
         const std::size_t below = pool_count_++, above = pool_count_++;
-        split(pool_[piece], family, k, tolerance, pool_[below], pool_[above]);
+        split(pool_[piece], family, k, tolerance, pool_[below], pool_[above], crossings_);
         if (pool_[below].num_faces >= 4 && !below_outside) next_.push_back(below);
         below_outside = false;
         if (k >= s_max || pool_[above].num_faces < 4) break;  // above s_max: outside the block

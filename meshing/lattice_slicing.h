@@ -48,6 +48,22 @@ class LatticeSlicer {
     int num_vertices = 0, num_faces = 0;
   };
 
+  /// A split's edge crossings by edge (lo × Piece::kVertices + hi), found
+  /// again from an edge's second face: valid where stamped with the
+  /// split's generation (no clearing between splits).
+  struct Crossings {
+    std::array<std::uint32_t, Piece::kVertices * Piece::kVertices> stamp{};
+    std::array<std::uint8_t, Piece::kVertices * Piece::kVertices> index{};
+    std::uint32_t generation = 0;
+    /// A new split: every stamp stale (cleared only when the count wraps).
+    void next() {
+      if (++generation == 0) {
+        stamp.fill(0);
+        generation = 1;
+      }
+    }
+  };
+
   /// The volume of the positively oriented tetrahedron x in each lattice
   /// tetrahedron it overlaps, as (key, volume in m³) with volume > 0, keys
   /// increasing and each once (a tetrahedron of the block only; parts
@@ -72,6 +88,7 @@ class LatticeSlicer {
   std::size_t pool_count_ = 0;
   std::vector<std::size_t> current_, next_;
   std::vector<Face> polygons_;
+  Crossings crossings_;
 };
 
 }  // namespace goo
