@@ -34,16 +34,19 @@ inline void damping_gather_lanes(const DampingSources& s, int first, int count, 
         }
       continue;
     }
-    int node[4][sizeof(R) / sizeof(double)], index[sizeof(R) / sizeof(double)];  // width each
+    int node[4][sizeof(R) / sizeof(double)];  // width each
     for (int c = 0; c < 4; ++c)
       for (int k = 0; k < width; ++k) node[c][k] = s.tets[4 * (first + lane + k) + c];
-    for (int c = 0; c < 4; ++c)
-      for (int i = 0; i < 3; ++i) {
-        for (int k = 0; k < width; ++k) index[k] = 3 * node[c][k] + i;
-        R v = Ops::gather(s.v, index);
-        if (s.p != nullptr) v = v + s.beta * Ops::gather(s.p, index);
-        Ops::store(&out.v[c][i][lane], v);
+    for (int c = 0; c < 4; ++c) {
+      R v[3];
+      Ops::gather_rows3(s.v, node[c], v);
+      if (s.p != nullptr) {
+        R p[3];
+        Ops::gather_rows3(s.p, node[c], p);
+        for (int i = 0; i < 3; ++i) v[i] = v[i] + s.beta * p[i];
       }
+      for (int i = 0; i < 3; ++i) Ops::store(&out.v[c][i][lane], v[i]);
+    }
   }
 }
 

@@ -100,6 +100,10 @@ struct ScalarOps {
   static double load(const double* p) { return *p; }
   /// base[index[0]] (the lanes' gather).
   static double gather(const double* base, const int* index) { return base[index[0]]; }
+  /// out[i] = base[3 row[0] + i] (the lanes' gather of rows of three).
+  static void gather_rows3(const double* base, const int* row, double out[3]) {
+    for (int i = 0; i < 3; ++i) out[i] = base[3 * row[0] + i];
+  }
   static void store(double* p, double x) { *p = x; }
   static double splat(double x) { return x; }
   static double sqrt(double x) { return __builtin_sqrt(x); }

@@ -56,6 +56,35 @@ struct VectorOps {
     return out;
 #endif
   }
+  /// Lane k of out[i]: base[3 row[k] + i], the rows of a #N×3 row-major
+  /// array. With AVX2 and no AVX-512, each row's three entries are read by
+  /// one masked load (the fourth neither read nor able to fault) and the
+  /// four rows transposed in registers: a gather instruction reads one entry
+  /// a lane, and Zen 3 issues the damping solves' 24 gathers a block at
+  /// about one per nine cycles (docs/benchmarks.md, session 45). The same
+  /// values either way.
+  static void gather_rows3(const double* base, const int* row, R out[3]) {
+#if defined(__AVX2__) && !defined(__AVX512F__)
+    const __m256i first_three = _mm256_set_epi64x(0, -1, -1, -1);
+    const __m256d r0 = _mm256_maskload_pd(base + 3 * row[0], first_three);  // x0 y0 z0 0
+    const __m256d r1 = _mm256_maskload_pd(base + 3 * row[1], first_three);
+    const __m256d r2 = _mm256_maskload_pd(base + 3 * row[2], first_three);
+    const __m256d r3 = _mm256_maskload_pd(base + 3 * row[3], first_three);
+    const __m256d xz01 = _mm256_unpacklo_pd(r0, r1);  // x0 x1 z0 z1
+    const __m256d y01 = _mm256_unpackhi_pd(r0, r1);   // y0 y1 0 0
+    const __m256d xz23 = _mm256_unpacklo_pd(r2, r3);
+    const __m256d y23 = _mm256_unpackhi_pd(r2, r3);
+    out[0] = reinterpret_cast<R>(_mm256_permute2f128_pd(xz01, xz23, 0x20));
+    out[1] = reinterpret_cast<R>(_mm256_permute2f128_pd(y01, y23, 0x20));
+    out[2] = reinterpret_cast<R>(_mm256_permute2f128_pd(xz01, xz23, 0x31));
+#else
+    int index[kWidth];
+    for (int i = 0; i < 3; ++i) {
+      for (int k = 0; k < kWidth; ++k) index[k] = 3 * row[k] + i;
+      out[i] = gather(base, index);
+    }
+#endif
+  }
   static R splat(double x) { return R{} + x; }
   static R sqrt(R x) {
 #if defined(__AVX512F__)
@@ -175,40 +204,44 @@ inline void damping_gather_vector(const DampingSources& sources, int first, int 
   damping_gather_lanes<VectorOps>(sources, first, count, lanes);
 }
 
-/// The damping block kWidth lanes at a time.
+/// The damping block kWidth lanes at a time. The block and the lanes are read
+/// and written with whole-register loads and stores: copied into local
+/// registers by memcpy, GCC spilled them through the stack in halves, and each
+/// register read back from two half-width stores waited for the store
+/// forwarding to fail (about a fifth of the damping solves' samples on an
+/// AMD Zen 3; docs/benchmarks.md, session 45).
 inline void damping_block_vector(const DampingBlock& block, DampingLanes& lanes) {
-  constexpr auto bytes = sizeof(Lanes);
   static_assert(kDampingLanes % kWidth == 0);
   for (int first = 0; first < kDampingLanes; first += kWidth) {
     Mat3<Lanes> G, A;
-    Lanes scale, v[4][3], f[4][3];
+    Lanes v[4][3], f[4][3];
     for (int k = 0; k < 9; ++k) {
-      __builtin_memcpy(&G.m[k], &block.G[k][first], bytes);
-      __builtin_memcpy(&A.m[k], &block.A[k][first], bytes);
+      G.m[k] = VectorOps::load(&block.G[k][first]);
+      A.m[k] = VectorOps::load(&block.A[k][first]);
     }
-    __builtin_memcpy(&scale, &block.scale[first], bytes);
+    const Lanes scale = VectorOps::load(&block.scale[first]);
     for (int c = 0; c < 4; ++c)
-      for (int i = 0; i < 3; ++i) __builtin_memcpy(&v[c][i], &lanes.v[c][i][first], bytes);
+      for (int i = 0; i < 3; ++i) v[c][i] = VectorOps::load(&lanes.v[c][i][first]);
     damping_lanes<VectorOps>(G, A, scale, v, f);
     for (int c = 0; c < 4; ++c)
-      for (int i = 0; i < 3; ++i) __builtin_memcpy(&lanes.f[c][i][first], &f[c][i], bytes);
+      for (int i = 0; i < 3; ++i) VectorOps::store(&lanes.f[c][i][first], f[c][i]);
   }
 }
 
-/// The damping block's corner blocks kWidth lanes at a time.
+/// The damping block's corner blocks kWidth lanes at a time (read and
+/// written as damping_block_vector does).
 inline void damping_diagonal_vector(const DampingBlock& block, DampingDiagonal& out) {
-  constexpr auto bytes = sizeof(Lanes);
   for (int first = 0; first < kDampingLanes; first += kWidth) {
     Mat3<Lanes> G, A;
-    Lanes scale, d[4][9];
+    Lanes d[4][9];
     for (int k = 0; k < 9; ++k) {
-      __builtin_memcpy(&G.m[k], &block.G[k][first], bytes);
-      __builtin_memcpy(&A.m[k], &block.A[k][first], bytes);
+      G.m[k] = VectorOps::load(&block.G[k][first]);
+      A.m[k] = VectorOps::load(&block.A[k][first]);
     }
-    __builtin_memcpy(&scale, &block.scale[first], bytes);
+    const Lanes scale = VectorOps::load(&block.scale[first]);
     damping_diagonal_lanes<VectorOps>(G, A, scale, d);
     for (int c = 0; c < 4; ++c)
-      for (int k = 0; k < 9; ++k) __builtin_memcpy(&out.d[c][k][first], &d[c][k], bytes);
+      for (int k = 0; k < 9; ++k) VectorOps::store(&out.d[c][k][first], d[c][k]);
   }
 }
 

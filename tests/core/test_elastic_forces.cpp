@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <cstring>
+#include <limits>
 #include <random>
 
 #include "core/body.h"
@@ -473,6 +474,58 @@ TEST(Damping, EveryVectorWidthGivesTheElementLoopsBits) {
                                      sizeof(double)) != 0;
     }
     EXPECT_EQ(differing, 0) << simd_level_name(level);
+  }
+}
+
+// The operator's gather reads each block's corner velocities, v or the
+// conjugate gradients' next direction v + β p formed as it reads them, into
+// lanes; at every level (the AVX2 one by masked row loads transposed in
+// registers) each lane must hold that corner's entries exactly, v + (β p) as
+// Eigen rounds it, and the lanes past a short last block zero, with the
+// array's last node among the corners read.
+TEST(Damping, TheGatherAtEveryVectorWidthReadsEachCornersVelocityExactly) {
+  std::mt19937 rng(17);
+  const ShakenCube cube(rng);
+  const Body& body = cube.body;
+  const Index ne = body.num_elements();
+  ASSERT_NE(ne % kDampingLanes, 0);
+  ASSERT_TRUE((body.tets.array() == body.num_nodes() - 1).any());
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const Points v = Points::NullaryExpr(body.num_nodes(), 3, [&] { return u(rng); });
+  const Points p = Points::NullaryExpr(body.num_nodes(), 3, [&] { return u(rng); });
+  const double beta = 0.7316;
+  for (const bool with_direction : {false, true}) {
+    const Points expected = with_direction ? Points(v + beta * p) : v;
+    DampingSources sources;
+    sources.v = v.data();
+    sources.p = with_direction ? p.data() : nullptr;
+    sources.beta = beta;
+    sources.tets = body.tets.data();
+    for (const SimdLevel level : {SimdLevel::scalar, SimdLevel::sse2, SimdLevel::avx2, SimdLevel::avx512}) {
+      if (!simd_level_supported(level)) continue;
+      int differing = 0, nonzero_past_the_end = 0;
+      for (Index first = 0; first < ne; first += kDampingLanes) {
+        const int count = static_cast<int>(std::min<Index>(kDampingLanes, ne - first));
+        DampingLanes lanes;
+        for (auto& corner : lanes.v)
+          for (auto& component : corner)
+            for (double& x : component) x = std::numeric_limits<double>::quiet_NaN();
+        damping_gather(sources, static_cast<int>(first), count, lanes, level);
+        for (int lane = 0; lane < kDampingLanes; ++lane)
+          for (int c = 0; c < 4; ++c)
+            for (int i = 0; i < 3; ++i) {
+              const double got = lanes.v[c][i][lane];
+              if (lane >= count) {
+                nonzero_past_the_end += got != 0.0;
+                continue;
+              }
+              const double want = expected(body.tets(first + lane, c), i);
+              differing += std::memcmp(&got, &want, sizeof(double)) != 0;
+            }
+      }
+      EXPECT_EQ(differing, 0) << simd_level_name(level) << (with_direction ? " v + beta p" : " v");
+      EXPECT_EQ(nonzero_past_the_end, 0) << simd_level_name(level);
+    }
   }
 }
 
