@@ -100,7 +100,7 @@ inline void force_batch_gather_lanes(const ForceSources& s, int first, int count
       for (int k = lane; k < lane + width; ++k) force_gather_lane(s, k < count ? first + k : -1, b, k);
       continue;
     }
-    int node[4][sizeof(R) / sizeof(double)], index[sizeof(R) / sizeof(double)];  // width each
+    int node[4][sizeof(R) / sizeof(double)], row[sizeof(R) / sizeof(double)];  // width each
     for (int c = 0; c < 4; ++c)
       for (int k = 0; k < width; ++k) node[c][k] = s.tets[4 * (e + k) + c];
     R least = Ops::gather(s.masses, node[0]);
@@ -108,17 +108,20 @@ inline void force_batch_gather_lanes(const ForceSources& s, int first, int count
       const R mass = Ops::gather(s.masses, node[c]);
       least = Ops::select(mass < least, mass, least);
     }
+    R x[3];
     for (int c = 0; c < 4; ++c) {
-      for (int i = 0; i < 3; ++i) {
-        for (int k = 0; k < width; ++k) index[k] = 3 * node[c][k] + i;
-        Ops::store(&b.x[c][i][lane], Ops::gather(s.x, index));
-      }
+      Ops::gather_rows3(s.x, node[c], x);
+      for (int i = 0; i < 3; ++i) Ops::store(&b.x[c][i][lane], x[i]);
     }
     Ops::store(&b.least_mass[lane], least);
-    for (int m = 0; m < 9; ++m) {
-      for (int k = 0; k < width; ++k) index[k] = 9 * (e + k) + m;
-      Ops::store(&b.Dm_inv[m][lane], Ops::gather(s.Dm_inv, index));
-      Ops::store(&b.Fp[m][lane], Ops::gather(s.Fp, index));
+    // An element's 3×3 matrix (column-major, 9 e + 3 j + i) as three rows
+    // of three: row 3 e + j holds column j.
+    for (int j = 0; j < 3; ++j) {
+      for (int k = 0; k < width; ++k) row[k] = 3 * (e + k) + j;
+      Ops::gather_rows3(s.Dm_inv, row, x);
+      for (int i = 0; i < 3; ++i) Ops::store(&b.Dm_inv[3 * j + i][lane], x[i]);
+      Ops::gather_rows3(s.Fp, row, x);
+      for (int i = 0; i < 3; ++i) Ops::store(&b.Fp[3 * j + i][lane], x[i]);
     }
     Ops::store(&b.rest_volume[lane], Ops::load(&s.rest_volumes[e]));
   }
