@@ -60,9 +60,9 @@ struct VectorOps {
   /// array. With AVX2 and no AVX-512, each row's three entries are read by
   /// one masked load (the fourth neither read nor able to fault) and the
   /// four rows transposed in registers: a gather instruction reads one entry
-  /// a lane, and Zen 3 issues the damping solves' 24 gathers a block at
-  /// about one per nine cycles (docs/benchmarks.md, session 45). The same
-  /// values either way.
+  /// a lane, and Zen 3 issues the 24 gathers of four elements' next
+  /// direction in a damping solve at about one per nine cycles
+  /// (docs/benchmarks.md, session 45). The same values either way.
   static void gather_rows3(const double* base, const int* row, R out[3]) {
 #if defined(__AVX2__) && !defined(__AVX512F__)
     const __m256i first_three = _mm256_set_epi64x(0, -1, -1, -1);
@@ -208,8 +208,8 @@ inline void damping_gather_vector(const DampingSources& sources, int first, int 
 /// and written with whole-register loads and stores: copied into local
 /// registers by memcpy, GCC spilled them through the stack in halves, and each
 /// register read back from two half-width stores waited for the store
-/// forwarding to fail (about a fifth of the damping solves' samples on an
-/// AMD Zen 3; docs/benchmarks.md, session 45).
+/// forwarding to fail (about 40% of the block's samples on an AMD Zen 3;
+/// docs/benchmarks.md, session 45).
 inline void damping_block_vector(const DampingBlock& block, DampingLanes& lanes) {
   static_assert(kDampingLanes % kWidth == 0);
   for (int first = 0; first < kDampingLanes; first += kWidth) {
