@@ -80,38 +80,90 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
         }
       }
   });
-  // Tetrahedra overlapping a triangle: in parallel over fixed chunks of
-  // triangles, each listing what it found; `keep` is only read there (the
-  // inside-node pass is complete) and set afterwards, so the result does not
-  // depend on the thread count.
+  // Tetrahedra overlapping a triangle. Each triangle is binned into the
+  // cells its box, widened by the slack, meets (those for_each_tet_shape_near
+  // looks around it, clamped to the block). A tetrahedron keyed by cell c
+  // and axis a is near exactly the triangles binned in c or c + e_a, so each
+  // tetrahedron without an inside node is tested against those alone, and
+  // only until one overlaps it: the same tetrahedra as testing the
+  // tetrahedra near every triangle, where each was tested by every triangle
+  // near it (docs/benchmarks.md, session 46).
   const double slack = 1e-9 * h;
-  constexpr std::size_t kChunk = 256;
   const auto num_triangles = static_cast<std::size_t>(surface.num_triangles());
-  std::vector<std::vector<BccLattice::Key>> chunks((num_triangles + kChunk - 1) / kChunk);
-  tbb::parallel_for(std::size_t{0}, chunks.size(), [&](std::size_t chunk) {
-    auto& found = chunks[chunk];
-    for (std::size_t index = chunk * kChunk; index < std::min(num_triangles, (chunk + 1) * kChunk); ++index) {
-      const auto t = static_cast<Index>(index);
-      const std::array<Eigen::Vector3d, 3> tri = {surface.vertices.row(surface.triangles(t, 0)).transpose(),
-                                                  surface.vertices.row(surface.triangles(t, 1)).transpose(),
-                                                  surface.vertices.row(surface.triangles(t, 2)).transpose()};
-      const Eigen::Vector3d lo = tri[0].cwiseMin(tri[1]).cwiseMin(tri[2]),
-                            hi = tri[0].cwiseMax(tri[1]).cwiseMax(tri[2]);
-      lattice.for_each_tet_shape_near(lo, hi, [&](BccLattice::Key key, const Eigen::Vector3i& cell, int axis, int edge) {
-        if (keep[static_cast<std::size_t>(key)]) return;
-        const auto tet = lattice.tet_positions(cell, axis, edge);
-        Eigen::Vector3d tet_lo = tet[0], tet_hi = tet[0];
-        for (const auto& p : tet) {
-          tet_lo = tet_lo.cwiseMin(p);
-          tet_hi = tet_hi.cwiseMax(p);
-        }
-        if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any()) return;
-        if (overlaps_inflated(tri, tet, slack)) found.push_back(key);
-      });
-    }
+  std::vector<std::array<Eigen::Vector3d, 2>> boxes(num_triangles);
+  std::vector<std::array<Eigen::Vector3i, 2>> ranges(num_triangles);
+  const Eigen::Vector3d widen = Eigen::Vector3d::Constant(slack);
+  for_each_index(static_cast<Index>(num_triangles), [&](Index t) {
+    const Eigen::Vector3d a = surface.vertices.row(surface.triangles(t, 0)).transpose(),
+                          b = surface.vertices.row(surface.triangles(t, 1)).transpose(),
+                          c = surface.vertices.row(surface.triangles(t, 2)).transpose();
+    const Eigen::Vector3d lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
+    boxes[at(t)] = {lo, hi};
+    ranges[at(t)] = {lattice.cell_of(lo - widen).array().max(0).matrix(),
+                     lattice.cell_of(hi + widen).array().min(cells.array() - 1).matrix()};
   });
-  for (const auto& chunk : chunks)
-    for (const BccLattice::Key key : chunk) keep[static_cast<std::size_t>(key)] = 1;
+  // The bins: each cell's triangles, ascending (a counting sort).
+  const auto cell_index = [&](int i, int j, int k) {
+    return static_cast<std::size_t>(i) +
+           static_cast<std::size_t>(cells.x()) *
+               (static_cast<std::size_t>(j) + static_cast<std::size_t>(cells.y()) * static_cast<std::size_t>(k));
+  };
+  auto for_each_binned_cell = [&](std::size_t t, auto&& f) {
+    const auto& [lo, hi] = ranges[t];
+    for (int k = lo.z(); k <= hi.z(); ++k)
+      for (int j = lo.y(); j <= hi.y(); ++j)
+        for (int i = lo.x(); i <= hi.x(); ++i) f(cell_index(i, j, k));
+  };
+  const std::size_t num_cells = cell_index(0, 0, cells.z());
+  std::vector<std::size_t> bin_offsets(num_cells + 1, 0);
+  for (std::size_t t = 0; t < num_triangles; ++t) for_each_binned_cell(t, [&](std::size_t c) { ++bin_offsets[c + 1]; });
+  for (std::size_t c = 0; c < num_cells; ++c) bin_offsets[c + 1] += bin_offsets[c];
+  std::vector<Index> binned(bin_offsets[num_cells]);
+  {
+    std::vector<std::size_t> next(bin_offsets.begin(), bin_offsets.end() - 1);
+    for (std::size_t t = 0; t < num_triangles; ++t)
+      for_each_binned_cell(t, [&](std::size_t c) { binned[next[c]++] = static_cast<Index>(t); });
+  }
+  // Per layer of cells, each tetrahedron keyed there that has no inside
+  // node: keep[key] is read and set for its own key only, so the layers
+  // run in parallel and the result does not depend on the thread count.
+  tbb::parallel_for(0, cells.z(), [&](int k) {
+    for (int j = 0; j < cells.y(); ++j)
+      for (int i = 0; i < cells.x(); ++i) {
+        const Eigen::Vector3i cell(i, j, k);
+        const std::size_t lower = cell_index(i, j, k);
+        for (int shape = 0; shape < 12; ++shape) {
+          const int axis = shape / 4, edge = shape % 4;
+          if (cell[axis] + 1 >= cells[axis]) continue;  // not valid: the upper centre is outside the block
+          const auto key = static_cast<std::size_t>(lattice.tet_key(cell, axis, edge));
+          if (keep[key]) continue;
+          Eigen::Vector3i above = cell;
+          ++above[axis];
+          const std::size_t upper = cell_index(above.x(), above.y(), above.z());
+          if (bin_offsets[lower] == bin_offsets[lower + 1] && bin_offsets[upper] == bin_offsets[upper + 1]) continue;
+          const auto tet = lattice.tet_positions(cell, axis, edge);
+          Eigen::Vector3d tet_lo = tet[0], tet_hi = tet[0];
+          for (const auto& p : tet) {
+            tet_lo = tet_lo.cwiseMin(p);
+            tet_hi = tet_hi.cwiseMax(p);
+          }
+          auto overlapped_in = [&](std::size_t bin) {
+            for (std::size_t n = bin_offsets[bin]; n < bin_offsets[bin + 1]; ++n) {
+              const auto t = static_cast<Index>(binned[n]);
+              const auto& [lo, hi] = boxes[at(t)];
+              if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any())
+                continue;
+              const std::array<Eigen::Vector3d, 3> tri = {surface.vertices.row(surface.triangles(t, 0)).transpose(),
+                                                          surface.vertices.row(surface.triangles(t, 1)).transpose(),
+                                                          surface.vertices.row(surface.triangles(t, 2)).transpose()};
+              if (overlaps_inflated(tri, tet, slack)) return true;
+            }
+            return false;
+          };
+          if (overlapped_in(lower) || overlapped_in(upper)) keep[key] = 1;
+        }
+      }
+  });
   // Compact numbering: elements in lattice key order, nodes in space order
   // (BccLattice::space_order; deterministic).
   std::vector<Index> node_id(static_cast<std::size_t>(lattice.num_nodes()), -1);
