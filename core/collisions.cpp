@@ -139,11 +139,15 @@ std::vector<SurfaceCollisions::Hit> SurfaceCollisions::detect(const Body& body, 
         if (v) y[at(k)] += dt * v->row(body.tets(e, k)).transpose();
         centre += bary_mid_[at(e)][k] * y[at(k)];
       }
+      // Each distance once: |y_k − y_j| and |y_j − y_k| are the same bits.
+      std::array<std::array<double, 4>, 4> apart{};
+      for (int j = 0; j < 4; ++j)
+        for (int k = j + 1; k < 4; ++k) apart[at(j)][at(k)] = apart[at(k)][at(j)] = (y[at(k)] - y[at(j)]).norm();
       radius = std::numeric_limits<double>::infinity();
       for (int j = 0; j < 4; ++j) {
         double r = 0.0;
         for (int k = 0; k < 4; ++k)
-          if (k != j) r += bary_reach_[at(e)][k] * (y[at(k)] - y[at(j)]).norm();
+          if (k != j) r += bary_reach_[at(e)][k] * apart[at(j)][at(k)];
         radius = std::min(radius, r);
       }
       radius = radius * (1.0 + 1e-9) + 1e-9 * centre.cwiseAbs().maxCoeff();
