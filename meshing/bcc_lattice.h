@@ -75,14 +75,23 @@ class BccLattice {
   /// The cell containing p (may be outside the block).
   [[nodiscard]] Eigen::Vector3i cell_of(const Eigen::Vector3d& p) const;
 
+  /// How far a box is widened before its cells are found (1e-9 h), so that
+  /// a box touching a cell's boundary finds that cell too.
+  [[nodiscard]] double near_slack() const { return 1e-9 * h_; }
+
+  /// The first and last cell of the block that the box [lo, hi], widened
+  /// by near_slack(), meets: the cells in between along each axis, clamped
+  /// to the block.
+  [[nodiscard]] std::array<Eigen::Vector3i, 2> cells_near(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) const {
+    const Eigen::Vector3d slack = Eigen::Vector3d::Constant(near_slack());
+    return {cell_of(lo - slack).array().max(0).matrix(), cell_of(hi + slack).array().min(cells_.array() - 1).matrix()};
+  }
+
   /// Calls f(key, cell, axis, edge) for every valid tetrahedron of the
   /// block that may meet or touch the box [lo, hi] (see below).
   template <class F>
   void for_each_tet_shape_near(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, F&& f) const {
-    // Widened by 1e-9 h so that a box touching a cell's boundary finds it.
-    const Eigen::Vector3d slack = Eigen::Vector3d::Constant(1e-9 * h_);
-    const Eigen::Vector3i lo_cell = cell_of(lo - slack).array().max(0);
-    const Eigen::Vector3i hi_cell = cell_of(hi + slack).array().min(cells_.array() - 1);
+    const auto [lo_cell, hi_cell] = cells_near(lo, hi);
     for (int shape = 0; shape < 12; ++shape) {
       const int axis = shape / 4;
       Eigen::Vector3i c0 = lo_cell, c1 = hi_cell;

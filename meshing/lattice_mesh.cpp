@@ -88,19 +88,20 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
   // only until one overlaps it: the same tetrahedra as testing the
   // tetrahedra near every triangle, where each was tested by every triangle
   // near it (docs/benchmarks.md, session 46).
-  const double slack = 1e-9 * h;
+  const double slack = lattice.near_slack();
   const auto num_triangles = static_cast<std::size_t>(surface.num_triangles());
+  const auto corners = [&](Index t) -> std::array<Eigen::Vector3d, 3> {
+    return {surface.vertices.row(surface.triangles(t, 0)).transpose(),
+            surface.vertices.row(surface.triangles(t, 1)).transpose(),
+            surface.vertices.row(surface.triangles(t, 2)).transpose()};
+  };
   std::vector<std::array<Eigen::Vector3d, 2>> boxes(num_triangles);
   std::vector<std::array<Eigen::Vector3i, 2>> ranges(num_triangles);
-  const Eigen::Vector3d widen = Eigen::Vector3d::Constant(slack);
   for_each_index(static_cast<Index>(num_triangles), [&](Index t) {
-    const Eigen::Vector3d a = surface.vertices.row(surface.triangles(t, 0)).transpose(),
-                          b = surface.vertices.row(surface.triangles(t, 1)).transpose(),
-                          c = surface.vertices.row(surface.triangles(t, 2)).transpose();
+    const auto [a, b, c] = corners(t);
     const Eigen::Vector3d lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
     boxes[at(t)] = {lo, hi};
-    ranges[at(t)] = {lattice.cell_of(lo - widen).array().max(0).matrix(),
-                     lattice.cell_of(hi + widen).array().min(cells.array() - 1).matrix()};
+    ranges[at(t)] = lattice.cells_near(lo, hi);
   });
   // The bins: each cell's triangles, ascending (a counting sort).
   const auto cell_index = [&](int i, int j, int k) {
@@ -153,10 +154,7 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
               const auto& [lo, hi] = boxes[at(t)];
               if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any())
                 continue;
-              const std::array<Eigen::Vector3d, 3> tri = {surface.vertices.row(surface.triangles(t, 0)).transpose(),
-                                                          surface.vertices.row(surface.triangles(t, 1)).transpose(),
-                                                          surface.vertices.row(surface.triangles(t, 2)).transpose()};
-              if (overlaps_inflated(tri, tet, slack)) return true;
+              if (overlaps_inflated(corners(t), tet, slack)) return true;
             }
             return false;
           };
