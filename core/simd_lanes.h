@@ -204,6 +204,15 @@ inline void damping_gather_vector(const DampingSources& sources, int first, int 
   damping_gather_lanes<VectorOps>(sources, first, count, lanes);
 }
 
+/// A frozen damping block's G, A and scale at lanes [first, first + kWidth).
+inline void load_damping_block(const DampingBlock& block, int first, Mat3<Lanes>& G, Mat3<Lanes>& A, Lanes& scale) {
+  for (int k = 0; k < 9; ++k) {
+    G.m[k] = VectorOps::load(&block.G[k][first]);
+    A.m[k] = VectorOps::load(&block.A[k][first]);
+  }
+  scale = VectorOps::load(&block.scale[first]);
+}
+
 /// The damping block kWidth lanes at a time. The block and the lanes are read
 /// and written with whole-register loads and stores: copied into local
 /// registers by memcpy, GCC spilled them through the stack in halves, and each
@@ -214,12 +223,8 @@ inline void damping_block_vector(const DampingBlock& block, DampingLanes& lanes)
   static_assert(kDampingLanes % kWidth == 0);
   for (int first = 0; first < kDampingLanes; first += kWidth) {
     Mat3<Lanes> G, A;
-    Lanes v[4][3], f[4][3];
-    for (int k = 0; k < 9; ++k) {
-      G.m[k] = VectorOps::load(&block.G[k][first]);
-      A.m[k] = VectorOps::load(&block.A[k][first]);
-    }
-    const Lanes scale = VectorOps::load(&block.scale[first]);
+    Lanes scale, v[4][3], f[4][3];
+    load_damping_block(block, first, G, A, scale);
     for (int c = 0; c < 4; ++c)
       for (int i = 0; i < 3; ++i) v[c][i] = VectorOps::load(&lanes.v[c][i][first]);
     damping_lanes<VectorOps>(G, A, scale, v, f);
@@ -233,12 +238,8 @@ inline void damping_block_vector(const DampingBlock& block, DampingLanes& lanes)
 inline void damping_diagonal_vector(const DampingBlock& block, DampingDiagonal& out) {
   for (int first = 0; first < kDampingLanes; first += kWidth) {
     Mat3<Lanes> G, A;
-    Lanes d[4][9];
-    for (int k = 0; k < 9; ++k) {
-      G.m[k] = VectorOps::load(&block.G[k][first]);
-      A.m[k] = VectorOps::load(&block.A[k][first]);
-    }
-    const Lanes scale = VectorOps::load(&block.scale[first]);
+    Lanes scale, d[4][9];
+    load_damping_block(block, first, G, A, scale);
     damping_diagonal_lanes<VectorOps>(G, A, scale, d);
     for (int c = 0; c < 4; ++c)
       for (int k = 0; k < 9; ++k) VectorOps::store(&out.d[c][k][first], d[c][k]);
