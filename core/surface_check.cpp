@@ -227,9 +227,10 @@ SurfaceReport analyze_surface(const TriangleMesh& mesh) {
   CompensatedSum absolute;
   const Eigen::Vector3d r = report.bounds.center();
   for (Index t = 0; t < mesh.num_triangles(); ++t) {
-    const Eigen::Vector3d a = mesh.vertices.row(mesh.triangles(t, 0)).transpose() - r;
-    const Eigen::Vector3d b = mesh.vertices.row(mesh.triangles(t, 1)).transpose() - r;
-    const Eigen::Vector3d c = mesh.vertices.row(mesh.triangles(t, 2)).transpose() - r;
+    auto [a, b, c] = mesh.corners(t);
+    a -= r;
+    b -= r;
+    c -= r;
     absolute.add(std::abs(a.dot(b.cross(c))) / 6.0);
   }
   if (std::abs(report.volume) <= 16.0 * kEps * absolute.value()) {

@@ -24,9 +24,10 @@ SurfaceIntegrals surface_integrals(const TriangleMesh& mesh) {
   CompensatedSum six_volume;
   std::array<CompensatedSum, 3> twentyfour_moment;  // Σ 6V_t · 4(c_t − r)
   for (Index t = 0; t < mesh.num_triangles(); ++t) {
-    const Eigen::Vector3d a = mesh.vertices.row(mesh.triangles(t, 0)).transpose() - r;
-    const Eigen::Vector3d b = mesh.vertices.row(mesh.triangles(t, 1)).transpose() - r;
-    const Eigen::Vector3d c = mesh.vertices.row(mesh.triangles(t, 2)).transpose() - r;
+    auto [a, b, c] = mesh.corners(t);
+    a -= r;
+    b -= r;
+    c -= r;
     area.add(0.5 * (b - a).cross(c - a).norm());
     const double det = a.dot(b.cross(c));
     six_volume.add(det);
@@ -48,9 +49,7 @@ double enclosed_volume_by_z_flux(const TriangleMesh& mesh) {
   const double rz = reference_point(mesh).z();
   CompensatedSum volume;
   for (Index t = 0; t < mesh.num_triangles(); ++t) {
-    const Eigen::Vector3d a = mesh.vertices.row(mesh.triangles(t, 0)).transpose();
-    const Eigen::Vector3d b = mesh.vertices.row(mesh.triangles(t, 1)).transpose();
-    const Eigen::Vector3d c = mesh.vertices.row(mesh.triangles(t, 2)).transpose();
+    const auto [a, b, c] = mesh.corners(t);
     // 2 A n_z = ((b − a) × (c − a))_z ; the mean of z − r_z over a triangle is
     // its value at the centroid because z is linear.
     const double two_area_nz = (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());

@@ -101,9 +101,7 @@ void write_ply(std::ostream& out, const TriangleMesh& mesh, const WriteOptions& 
 }
 
 Eigen::Vector3d unit_normal(const TriangleMesh& mesh, Index t) {
-  const Eigen::Vector3d a = mesh.vertices.row(mesh.triangles(t, 0));
-  const Eigen::Vector3d b = mesh.vertices.row(mesh.triangles(t, 1));
-  const Eigen::Vector3d c = mesh.vertices.row(mesh.triangles(t, 2));
+  const auto [a, b, c] = mesh.corners(t);
   const Eigen::Vector3d n = (b - a).cross(c - a);
   const double length = n.norm();
   return length > 0.0 ? Eigen::Vector3d(n / length) : Eigen::Vector3d::Zero();

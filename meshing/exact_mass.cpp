@@ -44,9 +44,7 @@ std::vector<double> node_surface_distances(const LatticeMesh& lm, const Triangle
   tbb::parallel_for(tbb::blocked_range<Index>(0, surface.num_triangles(), kParallelGrain),
                     [&](const tbb::blocked_range<Index>& r) {
                       for (Index t = r.begin(); t != r.end(); ++t) {
-                        const Eigen::Vector3d a = surface.vertices.row(surface.triangles(t, 0)).transpose();
-                        const Eigen::Vector3d b = surface.vertices.row(surface.triangles(t, 1)).transpose();
-                        const Eigen::Vector3d c = surface.vertices.row(surface.triangles(t, 2)).transpose();
+                        const auto [a, b, c] = surface.corners(t);
                         const Eigen::Vector3d n = (b - a).cross(c - a);
                         if (n.squaredNorm() == 0.0) continue;
                         const Eigen::Vector3d unit = n.normalized();

@@ -90,15 +90,10 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
   // near it (docs/benchmarks.md, session 46).
   const double slack = lattice.near_slack();
   const auto num_triangles = static_cast<std::size_t>(surface.num_triangles());
-  const auto corners = [&](Index t) -> std::array<Eigen::Vector3d, 3> {
-    return {surface.vertices.row(surface.triangles(t, 0)).transpose(),
-            surface.vertices.row(surface.triangles(t, 1)).transpose(),
-            surface.vertices.row(surface.triangles(t, 2)).transpose()};
-  };
   std::vector<std::array<Eigen::Vector3d, 2>> boxes(num_triangles);
   std::vector<std::array<Eigen::Vector3i, 2>> ranges(num_triangles);
   for_each_index(static_cast<Index>(num_triangles), [&](Index t) {
-    const auto [a, b, c] = corners(t);
+    const auto [a, b, c] = surface.corners(t);
     const Eigen::Vector3d lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
     boxes[at(t)] = {lo, hi};
     ranges[at(t)] = lattice.cells_near(lo, hi);
@@ -154,7 +149,7 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
               const auto& [lo, hi] = boxes[at(t)];
               if (((tet_lo.array() - slack) > hi.array()).any() || ((tet_hi.array() + slack) < lo.array()).any())
                 continue;
-              if (overlaps_inflated(corners(t), tet, slack)) return true;
+              if (overlaps_inflated(surface.corners(t), tet, slack)) return true;
             }
             return false;
           };

@@ -143,11 +143,6 @@ Corners element_corners(const TetMesh& mesh, Index e) {
           mesh.positions.row(mesh.tets(e, 2)).transpose(), mesh.positions.row(mesh.tets(e, 3)).transpose()};
 }
 
-std::array<Vec, 3> triangle_corners(const TriangleMesh& s, Index t) {
-  return {s.vertices.row(s.triangles(t, 0)).transpose(), s.vertices.row(s.triangles(t, 1)).transpose(),
-          s.vertices.row(s.triangles(t, 2)).transpose()};
-}
-
 /// Disjoint sets over a few items, reused from element to element.
 struct SmallSets {
   std::vector<int> parent;
@@ -265,7 +260,7 @@ void classify_element(const Corners& x, const std::array<Index, 4>& nodes, const
       const int sp = sides[i].corner[static_cast<std::size_t>(edge[0])],
                 sq = sides[i].corner[static_cast<std::size_t>(edge[1])];
       if (sp != 0 && sp == sq) continue;
-      const auto c = triangle_corners(surface, tris[i]);
+      const auto c = surface.corners(tris[i]);
       const Answer a = segment_crosses_triangle(p, q, sp, sq, c[0], c[1], c[2]);
       if (a == Answer::degenerate) out.degenerate = true;
       if (a != Answer::yes) continue;
@@ -456,7 +451,7 @@ void join_across_face(const LatticeMesh& lm, const TriangleMesh& surface, const 
   const std::array<Vec, 3> face = {mesh.positions.row(mesh.tets(e0, corner0[0])).transpose(),
                                    mesh.positions.row(mesh.tets(e0, corner0[1])).transpose(),
                                    mesh.positions.row(mesh.tets(e0, corner0[2])).transpose()};
-  auto crosses_face = [&](Index t) { return triangle_crosses_face(triangle_corners(surface, t), face); };
+  auto crosses_face = [&](Index t) { return triangle_crosses_face(surface.corners(t), face); };
   const Index i_begin = out.pair_first[at(e0)], i_end = out.pair_first[at(e0) + 1];
   const Index j_begin = out.pair_first[at(e1)], j_end = out.pair_first[at(e1) + 1];
   if (c0.simple && c1.simple) {
@@ -689,7 +684,7 @@ MaterialParts material_parts(const LatticeMesh& lm, const TriangleMesh& surface,
         sides.clear();
         bool undecided = false;
         for (const Index t : candidates) {
-          const auto tri = triangle_corners(surface, t);
+          const auto tri = surface.corners(t);
           // A face plane of either that separates them by more than the
           // slack separates them exactly (the round-off of the projections
           // is far smaller).

@@ -124,11 +124,6 @@ std::array<const Vec3*, 3> pointers(const std::array<Vec3, 3>& p) {
   return {&p[0], &p[1], &p[2]};
 }
 
-std::array<Vec3, 3> corner_points(const TriangleMesh& mesh, Index t) {
-  return {mesh.vertices.row(mesh.triangles(t, 0)).transpose(), mesh.vertices.row(mesh.triangles(t, 1)).transpose(),
-          mesh.vertices.row(mesh.triangles(t, 2)).transpose()};
-}
-
 }  // namespace
 
 bool segment_meets_triangle(const Vec3& a, const Vec3& b, const Vec3& u, const Vec3& v, const Vec3& w) {
@@ -146,7 +141,7 @@ namespace {
 
 /// triangles_intersect for two triangles of non-zero area.
 bool nondegenerate_triangles_intersect(const TriangleMesh& mesh, Index s, Index t) {
-  const std::array<Vec3, 3> p = corner_points(mesh, s), q = corner_points(mesh, t);
+  const std::array<Vec3, 3> p = mesh.corners(s), q = mesh.corners(t);
   int shared = 0, is = -1, js = -1;  // the number of shared ids, and the last shared corner in s and t
   int in_s[3] = {-1, -1, -1};        // for each corner of s, the matching corner of t
   for (int i = 0; i < 3; ++i) {
@@ -201,7 +196,7 @@ TriangleFacts triangle_facts(const TriangleMesh& mesh, double delta) {
   f.normal.resize(at(nt));
   f.turn.resize(at(nt));
   for_each_index(nt, [&](Index t) {
-    const std::array<Vec3, 3> p = corner_points(mesh, t);
+    const std::array<Vec3, 3> p = mesh.corners(t);
     Box3 box;
     for (const Vec3& x : p) box.extend(x);
     f.boxes[at(t)] = box;
@@ -240,7 +235,7 @@ double coordinate_error(const TriangleMesh& mesh) {
 }  // namespace
 
 bool triangles_intersect(const TriangleMesh& mesh, Index s, Index t) {
-  const std::array<Vec3, 3> p = corner_points(mesh, s), q = corner_points(mesh, t);
+  const std::array<Vec3, 3> p = mesh.corners(s), q = mesh.corners(t);
   if (!nondegenerate(p[0], p[1], p[2]) || !nondegenerate(q[0], q[1], q[2])) return false;
   return nondegenerate_triangles_intersect(mesh, s, t);
 }
@@ -301,7 +296,7 @@ FacingSheets facing_sheets(const TriangleMesh& mesh, double gap) {
   std::vector<Entry> entries(at(nt));
   std::vector<double> area(at(nt));
   for_each_index(nt, [&](Index t) {
-    const std::array<Vec3, 3> p = corner_points(mesh, t);
+    const std::array<Vec3, 3> p = mesh.corners(t);
     Entry& e = entries[at(t)];
     e.centre = (p[0] + p[1] + p[2]) / 3.0;
     const Vec3 n = (p[1] - p[0]).cross(p[2] - p[0]);

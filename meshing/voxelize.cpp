@@ -78,9 +78,7 @@ std::vector<std::uint8_t> voxelize(const BccLattice& lattice, const TriangleMesh
     tbb::parallel_for(std::size_t{0}, num_chunks, [&](std::size_t chunk) {
       auto& found = chunks[chunk];
       auto visit = [&](Index t) {
-        const Eigen::Vector3d a = surface.vertices.row(surface.triangles(t, 0));
-        const Eigen::Vector3d b = surface.vertices.row(surface.triangles(t, 1));
-        const Eigen::Vector3d c = surface.vertices.row(surface.triangles(t, 2));
+        const auto [a, b, c] = surface.corners(t);
         const int sign = exact::orient_xy(a, b, c);
         if (sign == 0) return;  // vertical: the shifted ray never meets it
         const Eigen::Vector3d& u0 = a;
