@@ -1,8 +1,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <map>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "core/error.h"
 #include "meshing/bcc_lattice.h"
@@ -113,6 +116,65 @@ TEST(BccLattice, LocateOnLatticeNodesAndFacesStillContainsThePoint) {
     const auto found = kLattice.locate(p);
     if (!found) continue;  // outside the tiled region
     EXPECT_GE(kLattice.barycentric(*found, p).minCoeff(), -1e-14) << "node " << node;
+  }
+}
+
+// Checks for_each_tet_shape_near(lo, hi) against every valid tetrahedron:
+// each one whose bounding box meets the closed box [lo, hi] (touching
+// counts) is visited, nothing is visited twice, and every visited key is a
+// valid tetrahedron of the block with the cell, axis and edge it was keyed by.
+void expect_near_tets_found(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, const std::string& what) {
+  std::vector<BccLattice::Key> visited;
+  kLattice.for_each_tet_shape_near(lo, hi, [&](BccLattice::Key key, const Eigen::Vector3i& cell, int axis, int edge) {
+    EXPECT_TRUE(kLattice.valid(key)) << what << ": key " << key;
+    EXPECT_EQ(key, kLattice.tet_key(cell, axis, edge)) << what;
+    visited.push_back(key);
+  });
+  std::sort(visited.begin(), visited.end());
+  EXPECT_EQ(std::adjacent_find(visited.begin(), visited.end()), visited.end()) << what << ": a tetrahedron twice";
+  for (const BccLattice::Key t : all_tets(kLattice)) {
+    Eigen::Vector3d tet_lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::Vector3d tet_hi = -tet_lo;
+    for (const BccLattice::Key node : kLattice.tet_nodes(t)) {
+      tet_lo = tet_lo.cwiseMin(kLattice.position(node));
+      tet_hi = tet_hi.cwiseMax(kLattice.position(node));
+    }
+    if ((tet_lo.array() <= hi.array()).all() && (tet_hi.array() >= lo.array()).all()) {
+      EXPECT_TRUE(std::binary_search(visited.begin(), visited.end(), t)) << what << ": tetrahedron " << t << " missed";
+    }
+  }
+}
+
+TEST(BccLattice, TheTetrahedraNearABoxAreAllThatTouchItInsideAndPastTheBlock) {
+  // Boxes across the block's faces and wholly outside it are what the
+  // clamps of cells_near and for_each_tet_shape_near serve: the surface's
+  // own lattice keeps empty cells around it, so no mesh test reaches them.
+  const Eigen::Vector3d size = kLattice.spacing() * kLattice.cells().cast<double>();
+  std::mt19937 rng(20261207);
+  std::uniform_real_distribution<double> u(-0.5, 1.5);  // in units of the block's size
+  for (int trial = 0; trial < 300; ++trial) {
+    Eigen::Vector3d a, b;
+    for (int k = 0; k < 3; ++k) {
+      a[k] = kLattice.origin()[k] + u(rng) * size[k];
+      b[k] = kLattice.origin()[k] + u(rng) * size[k];
+    }
+    expect_near_tets_found(a.cwiseMin(b), a.cwiseMax(b), "random box " + std::to_string(trial));
+  }
+  // A box that is one point, at every node: on the block's faces and
+  // corners too, it touches the last cells only at their boundary.
+  for (BccLattice::Key node = 0; node < kLattice.num_nodes(); ++node) {
+    const Eigen::Vector3d p = kLattice.position(node);
+    expect_near_tets_found(p, p, "node " + std::to_string(node));
+  }
+  // A slab past each face, touching it.
+  const Eigen::Vector3d block_lo = kLattice.origin(), block_hi = kLattice.origin() + size;
+  for (int axis = 0; axis < 3; ++axis) {
+    Eigen::Vector3d lo = block_lo - size, hi = block_hi + size;
+    hi[axis] = block_lo[axis];
+    expect_near_tets_found(lo, hi, "slab below axis " + std::to_string(axis));
+    lo = block_lo - size, hi = block_hi + size;
+    lo[axis] = block_hi[axis];
+    expect_near_tets_found(lo, hi, "slab above axis " + std::to_string(axis));
   }
 }
 
