@@ -29,6 +29,12 @@ std::array<Eigen::Vector3d, 4> local_nodes(int axis, int edge) {
   return out;
 }
 
+/// The cell containing the point at lattice coordinates q.
+Eigen::Vector3i floor_cell(const Eigen::Vector3d& q) {
+  return {static_cast<int>(std::floor(q.x())), static_cast<int>(std::floor(q.y())),
+          static_cast<int>(std::floor(q.z()))};
+}
+
 }  // namespace
 
 BccLattice::BccLattice(const Eigen::Vector3d& origin, double spacing, const Eigen::Vector3i& cells)
@@ -152,15 +158,13 @@ std::array<Eigen::Vector3d, 4> BccLattice::tet_positions(const Eigen::Vector3i& 
 }
 
 Eigen::Vector3i BccLattice::cell_of(const Eigen::Vector3d& p) const {
-  const Eigen::Vector3d q = (p - origin_) / h_;
-  return {static_cast<int>(std::floor(q.x())), static_cast<int>(std::floor(q.y())),
-          static_cast<int>(std::floor(q.z()))};
+  return floor_cell((p - origin_) / h_);
 }
 
 std::optional<BccLattice::Key> BccLattice::locate(const Eigen::Vector3d& p) const {
   const Eigen::Vector3d q = (p - origin_) / h_;
   if (!q.allFinite()) return std::nullopt;
-  const Eigen::Vector3i cell = cell_of(p);
+  const Eigen::Vector3i cell = floor_cell(q);  // cell_of(p), bit for bit
   if ((cell.array() < 0).any() || (cell.array() >= cells_.array()).any()) return std::nullopt;
   const Eigen::Vector3d d = q - cell.cast<double>() - Eigen::Vector3d::Constant(0.5);
   int axis = 0;
