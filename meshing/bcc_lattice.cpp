@@ -29,10 +29,17 @@ std::array<Eigen::Vector3d, 4> local_nodes(int axis, int edge) {
   return out;
 }
 
-/// The cell containing the point at lattice coordinates q.
+/// The cell containing the point at lattice coordinates q. A coordinate
+/// past ±2³⁰ cells (a finite point far outside any block, an infinite or NaN
+/// one) is clamped to ±2³⁰ first: converting a double beyond int's range is
+/// undefined, and a caller's cell ± 1 must not overflow either. Every block
+/// is far smaller, so clamped cells are outside it as before.
 Eigen::Vector3i floor_cell(const Eigen::Vector3d& q) {
-  return {static_cast<int>(std::floor(q.x())), static_cast<int>(std::floor(q.y())),
-          static_cast<int>(std::floor(q.z()))};
+  constexpr double kFar = 1 << 30;
+  const auto floor_clamped = [](double x) {
+    return static_cast<int>(std::floor(!(x >= -kFar) ? -kFar : (x > kFar ? kFar : x)));  // NaN: -2³⁰
+  };
+  return {floor_clamped(q.x()), floor_clamped(q.y()), floor_clamped(q.z())};
 }
 
 }  // namespace

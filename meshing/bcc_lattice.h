@@ -72,7 +72,8 @@ class BccLattice {
   /// Barycentric coordinates of p in a tetrahedron (in tet_nodes order).
   [[nodiscard]] Eigen::Vector4d barycentric(Key tet, const Eigen::Vector3d& p) const;
 
-  /// The cell containing p (may be outside the block).
+  /// The cell containing p (may be outside the block; each index is
+  /// clamped to ±2³⁰, and a NaN coordinate gives −2³⁰).
   [[nodiscard]] Eigen::Vector3i cell_of(const Eigen::Vector3d& p) const;
 
   /// How far a box is widened before its cells are found (1e-9 h), so that

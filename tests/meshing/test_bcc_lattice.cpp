@@ -178,6 +178,37 @@ TEST(BccLattice, TheTetrahedraNearABoxAreAllThatTouchItInsideAndPastTheBlock) {
   }
 }
 
+TEST(BccLattice, PointsAndBoxesFarBeyondIntsRangeOfCellsAreOutsideOrClampedToTheBlock) {
+  // A coordinate of 10³⁰⁰ m is 10³⁰² cells out: its cell is clamped before
+  // the conversion to int (undefined beyond int's range; on x86 it gave
+  // INT_MIN, so a box reaching that far above the block found nothing).
+  const double far = 1e300;
+  const std::vector<Eigen::Vector3d> points = {Eigen::Vector3d(far, 0, 0), Eigen::Vector3d(0, -far, 0),
+                                               Eigen::Vector3d(0, 0, 3e9), Eigen::Vector3d(-3e9, -3e9, -3e9),
+                                               Eigen::Vector3d(far, -far, far)};
+  for (const Eigen::Vector3d& p : points) {
+    EXPECT_FALSE(kLattice.locate(p).has_value()) << p.transpose();
+    const Eigen::Vector3i cell = kLattice.cell_of(p);
+    for (int k = 0; k < 3; ++k) {
+      if (std::abs(p[k]) > 1e6) {
+        EXPECT_EQ(cell[k], p[k] > 0 ? 1 << 30 : -(1 << 30)) << p.transpose();
+      }
+    }
+  }
+  const Eigen::Vector3d inf = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  EXPECT_EQ(kLattice.cell_of(inf), Eigen::Vector3i::Constant(1 << 30));
+  EXPECT_EQ(kLattice.cell_of(-inf), Eigen::Vector3i::Constant(-(1 << 30)));
+  EXPECT_EQ(kLattice.cell_of(Eigen::Vector3d::Constant(std::nan(""))), Eigen::Vector3i::Constant(-(1 << 30)));
+  // Boxes from far below to far above, and from inside to far above: every
+  // tetrahedron they touch is found, each once.
+  const Eigen::Vector3d centre = kLattice.origin() + 0.5 * kLattice.spacing() * kLattice.cells().cast<double>();
+  expect_near_tets_found(Eigen::Vector3d::Constant(-far), Eigen::Vector3d::Constant(far), "everything");
+  expect_near_tets_found(-inf, inf, "infinite");
+  expect_near_tets_found(centre, Eigen::Vector3d::Constant(far), "centre to far above");
+  expect_near_tets_found(Eigen::Vector3d::Constant(-far), centre, "far below to centre");
+  expect_near_tets_found(Eigen::Vector3d(-far, centre.y(), -far), Eigen::Vector3d(far, centre.y(), far), "a plane");
+}
+
 TEST(BccLattice, OutsideTheBlockThereIsNoTetrahedron) {
   EXPECT_FALSE(kLattice.locate(kLattice.origin() - Eigen::Vector3d::Constant(0.01)).has_value());
   EXPECT_FALSE(kLattice.locate(Eigen::Vector3d(std::nan(""), 0, 0)).has_value());
