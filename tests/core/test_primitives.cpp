@@ -83,8 +83,7 @@ TEST(Primitives, SplitIntoFourKeepsTheShapeAndTheTopology) {
   const TriangleMesh four = split_into_four(one);
   ASSERT_EQ(four.num_triangles(), 4);
   for (Index t = 0; t < 4; ++t) {
-    const Eigen::Vector3d a = four.vertices.row(four.triangles(t, 0)), b = four.vertices.row(four.triangles(t, 1)),
-                          c = four.vertices.row(four.triangles(t, 2));
+    const auto [a, b, c] = four.corners(t);
     EXPECT_DOUBLE_EQ((b - a).cross(c - a).z(), 0.25) << "child " << t;  // a quarter of the area, +z
   }
   EXPECT_THROW(split_into_four(one, -1), Error);

@@ -83,9 +83,7 @@ TEST(SurfaceTension, BothFormsConvergeToTheMeanCurvatureForceOnSpheres) {
       // Vertex areas: a third of each incident triangle.
       Eigen::VectorXd area = Eigen::VectorXd::Zero(sphere.num_vertices());
       for (Index t = 0; t < sphere.num_triangles(); ++t) {
-        const Eigen::Vector3d a = sphere.vertices.row(sphere.triangles(t, 0)),
-                              b = sphere.vertices.row(sphere.triangles(t, 1)),
-                              c = sphere.vertices.row(sphere.triangles(t, 2));
+        const auto [a, b, c] = sphere.corners(t);
         const double A = 0.5 * (b - a).cross(c - a).norm();
         for (int k = 0; k < 3; ++k) area[sphere.triangles(t, k)] += A / 3.0;
       }

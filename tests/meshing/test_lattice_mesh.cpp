@@ -48,9 +48,8 @@ TEST(LatticeMesh, CoversTheSurfaceAndEmbedsEveryVertexInItsParent) {
     std::uniform_real_distribution<double> u(0.0, 1.0);
     Points samples(4 * c.surface.num_triangles(), 3);
     for (Index t = 0; t < c.surface.num_triangles(); ++t) {
-      const Eigen::RowVector3d a = c.surface.vertices.row(c.surface.triangles(t, 0));
-      const Eigen::RowVector3d b = c.surface.vertices.row(c.surface.triangles(t, 1));
-      const Eigen::RowVector3d d = c.surface.vertices.row(c.surface.triangles(t, 2));
+      const auto [ca, cb, cd] = c.surface.corners(t);
+      const Eigen::RowVector3d a = ca.transpose(), b = cb.transpose(), d = cd.transpose();
       samples.row(4 * t) = (a + b + d) / 3.0;
       samples.row(4 * t + 1) = 0.5 * (a + b);
       samples.row(4 * t + 2) = 0.5 * (b + d);
@@ -88,9 +87,7 @@ void expect_the_tetrahedra_with_an_inside_node_or_a_triangle_over_them(const Cas
   const double slack = 1e-9 * c.h;
   int overlapped = 0;
   for (Index t = 0; t < c.surface.num_triangles(); ++t) {
-    const std::array<Eigen::Vector3d, 3> tri = {c.surface.vertices.row(c.surface.triangles(t, 0)).transpose(),
-                                                c.surface.vertices.row(c.surface.triangles(t, 1)).transpose(),
-                                                c.surface.vertices.row(c.surface.triangles(t, 2)).transpose()};
+    const std::array<Eigen::Vector3d, 3> tri = c.surface.corners(t);
     const Eigen::Vector3d lo = tri[0].cwiseMin(tri[1]).cwiseMin(tri[2]), hi = tri[0].cwiseMax(tri[1]).cwiseMax(tri[2]);
     lattice.for_each_tet_shape_near(lo, hi, [&](BccLattice::Key key, const Eigen::Vector3i& cell, int axis, int edge) {
       const auto tet = lattice.tet_positions(cell, axis, edge);

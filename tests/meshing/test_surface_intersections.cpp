@@ -284,8 +284,7 @@ TEST(FacingSheets, FindsWhatEveryPairAgainstEveryOtherFinds) {
   std::vector<V> centre(static_cast<std::size_t>(nt)), normal(static_cast<std::size_t>(nt));
   std::vector<double> area(static_cast<std::size_t>(nt));
   for (Index t = 0; t < nt; ++t) {
-    const V a = both.vertices.row(both.triangles(t, 0)), b = both.vertices.row(both.triangles(t, 1)),
-            c = both.vertices.row(both.triangles(t, 2));
+    const auto [a, b, c] = both.corners(t);
     const V n = (b - a).cross(c - a);
     centre[static_cast<std::size_t>(t)] = (a + b + c) / 3.0;
     area[static_cast<std::size_t>(t)] = 0.5 * n.norm();

@@ -169,10 +169,8 @@ TEST(SurfaceUpkeep, FlipsRemoveSliversAndTheirCreasesMovingNoVertex) {
   // The box's edges: every triangle still faces an axis (the caps' stars
   // tilt by atan(1e-3 / spacing) < 1°; a flip across a box edge, 45°).
   for (Index t = 0; t < flipped.num_triangles(); ++t) {
-    const Eigen::Vector3d a = flipped.vertices.row(flipped.triangles(t, 0)).transpose();
-    const Eigen::Vector3d n = (flipped.vertices.row(flipped.triangles(t, 1)).transpose() - a)
-                                  .cross(flipped.vertices.row(flipped.triangles(t, 2)).transpose() - a)
-                                  .normalized();
+    const auto [a, b, c] = flipped.corners(t);
+    const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
     EXPECT_GT(n.cwiseAbs().maxCoeff(), 0.999) << "triangle " << t;
   }
   // Without flips, the caps stay.

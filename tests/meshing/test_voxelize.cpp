@@ -20,9 +20,8 @@ namespace {
 double winding_number(const TriangleMesh& mesh, const Eigen::Vector3d& p) {
   double total = 0.0;
   for (Index t = 0; t < mesh.num_triangles(); ++t) {
-    const Eigen::Vector3d a = mesh.vertices.row(mesh.triangles(t, 0)).transpose() - p;
-    const Eigen::Vector3d b = mesh.vertices.row(mesh.triangles(t, 1)).transpose() - p;
-    const Eigen::Vector3d c = mesh.vertices.row(mesh.triangles(t, 2)).transpose() - p;
+    const auto [ta, tb, tc] = mesh.corners(t);
+    const Eigen::Vector3d a = ta - p, b = tb - p, c = tc - p;
     const double la = a.norm(), lb = b.norm(), lc = c.norm();
     const double numerator = a.dot(b.cross(c));
     const double denominator = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;

@@ -1030,9 +1030,7 @@ Bottom bottom_against(const TriangleMesh& mesh, const Obstacle& obstacle, double
   std::vector<std::uint8_t> in_contact(static_cast<std::size_t>(nt), 0);
   std::vector<Eigen::Vector3d> normal(static_cast<std::size_t>(nt));
   for (Index f = 0; f < nt; ++f) {
-    const Eigen::Vector3d a = mesh.vertices.row(mesh.triangles(f, 0)).transpose(),
-                          b = mesh.vertices.row(mesh.triangles(f, 1)).transpose(),
-                          c = mesh.vertices.row(mesh.triangles(f, 2)).transpose();
+    const auto [a, b, c] = mesh.corners(f);
     normal[static_cast<std::size_t>(f)] = (b - a).cross(c - a).normalized();
     bool close = true;
     for (const auto& p : {a, b, c}) close = close && obstacle.query(p, t).distance <= near;
