@@ -132,7 +132,8 @@ void expect_near_tets_found(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi
   });
   std::sort(visited.begin(), visited.end());
   EXPECT_EQ(std::adjacent_find(visited.begin(), visited.end()), visited.end()) << what << ": a tetrahedron twice";
-  for (const BccLattice::Key t : all_tets(kLattice)) {
+  static const std::vector<BccLattice::Key> tets = all_tets(kLattice);
+  for (const BccLattice::Key t : tets) {
     Eigen::Vector3d tet_lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
     Eigen::Vector3d tet_hi = -tet_lo;
     for (const BccLattice::Key node : kLattice.tet_nodes(t)) {
