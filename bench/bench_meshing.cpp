@@ -145,6 +145,26 @@ void BM_Transfer(benchmark::State& state) {
 }
 BENCHMARK(BM_Transfer)->Apply(configure);
 
+/// The transfer's overlap volumes alone (each old element sliced along the
+/// new lattice's planes, lattice_slicing.h), on one thread: the slicer's
+/// cost per old element. Old elements per second.
+void BM_ElementOverlaps(benchmark::State& state) {
+  const goo::TriangleMesh* mesh = model(static_cast<int>(state.range(0)));
+  if (!mesh) return state.SkipWithError("assets missing: run scripts/fetch-assets");
+  const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+  const double h = spacing_for(*mesh, 1000.0 * static_cast<double>(state.range(1)));
+  const goo::MeshedBody mb = deformed_body(*mesh, h);
+  const goo::LatticeMesh lm = goo::build_lattice_mesh(mb.surface(), h);
+  std::size_t pairs = 0;
+  for (auto _ : state) {
+    const goo::ElementOverlaps overlaps = goo::element_overlaps(mb.body.tets, mb.body.positions, lm);
+    pairs = overlaps.volume.size();
+  }
+  state.counters["pairs"] = static_cast<double>(pairs);
+  state.SetItemsProcessed(state.iterations() * mb.body.num_elements());
+}
+BENCHMARK(BM_ElementOverlaps)->Apply(configure);
+
 /// The whole re-mesh of a deformed, moving body: new lattice mesh, transfer,
 /// exact masses, conservation, re-embedding; with `separate`, the copies per
 /// part of the material too (what a scene does by default).

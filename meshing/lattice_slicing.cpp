@@ -60,133 +60,147 @@ std::pair<double, double> extent(const Family& family, It begin, It end) {
   return {lo, hi};
 }
 
-/// Splits `in` by the plane s = k into `below` (s ≤ k) and `above` (s ≥ k),
-/// each closed by the cut as a new face. Distances within `tolerance` count
-/// as on the plane (such a vertex goes to both parts); a face lying on it is
-/// dropped (the cut replaces it). Each vertex's distance and each edge's
-/// crossing are computed once, for all the faces that share them (the
-/// crossings found again through `table`, the slicer's, reused split to
-/// split).
-void split(const Piece& in, const Family& family, double k, double tolerance, Piece& below, Piece& above,
-           LatticeSlicer::Crossings& table) {
-  constexpr std::uint8_t kNone = 0xff;
-  below.num_vertices = above.num_vertices = below.num_faces = above.num_faces = 0;
+/// Vertex i's neighbours in a positively oriented tetrahedron,
+/// counter-clockwise seen from outside, from its faces (kTetFaces, each
+/// counter-clockwise seen from outside): walking a face a → b → c leaves b
+/// along the edge before the one it came by, so c comes just before a
+/// about b.
+std::array<std::array<std::uint8_t, 3>, 4> make_tet_neighbours() {
+  std::array<std::array<std::uint8_t, 3>, 4> out{};
+  for (int b = 0; b < 4; ++b) {
+    std::array<int, 4> before{-1, -1, -1, -1};  // before[a]: the neighbour just before a about b
+    for (const auto& f : kTetFaces)
+      for (int t = 0; t < 3; ++t)
+        if (f[t] == b) before[static_cast<std::size_t>(f[(t + 2) % 3])] = f[(t + 1) % 3];
+    const int first = b == 0 ? 1 : 0;
+    auto& n = out[static_cast<std::size_t>(b)];
+    n[0] = static_cast<std::uint8_t>(first);
+    n[2] = static_cast<std::uint8_t>(before[static_cast<std::size_t>(first)]);
+    n[1] = static_cast<std::uint8_t>(before[n[2]]);
+  }
+  return out;
+}
+
+const std::array<std::array<std::uint8_t, 3>, 4> kTetNeighbours = make_tet_neighbours();
+
+/// back[i][m]: where vertex i is among the neighbours of kTetNeighbours[i][m].
+std::array<std::array<std::uint8_t, 3>, 4> make_tet_back() {
+  std::array<std::array<std::uint8_t, 3>, 4> out{};
+  for (std::size_t i = 0; i < 4; ++i)
+    for (std::size_t m = 0; m < 3; ++m) {
+      const auto& n = kTetNeighbours[kTetNeighbours[i][m]];
+      out[i][m] = static_cast<std::uint8_t>(n[0] == i ? 0 : n[1] == i ? 1 : 2);
+    }
+  return out;
+}
+
+const std::array<std::array<std::uint8_t, 3>, 4> kTetBack = make_tet_back();
+
+/// Splits `in` by the plane s = k into `below` (s < k) and `above` (s ≥ k):
+/// each vertex goes to its side, each edge with ends on both sides gets a new
+/// vertex in each part at the same point, and the new vertices of a part are
+/// joined into its cap by walking, from each, the face its edge's kept end
+/// leads into until the next new vertex. Distances within `tolerance` count
+/// as on the plane (such a vertex goes above, and an edge from it to below
+/// is cut at the vertex itself). False if a part would have more than
+/// Piece::kVertices vertices or a walk does not close (a graph round-off
+/// left inconsistent with a plane): the caller then takes another way.
+bool split(const Piece& in, const Family& family, double k, double tolerance, Piece& below, Piece& above) {
+  const int n = in.num_vertices;
   std::array<double, Piece::kVertices> d;
-  std::array<std::uint8_t, Piece::kVertices> to_below, to_above;
-  // The cut's vertices, as their indices in both parts.
-  std::array<std::array<std::uint8_t, 2>, Piece::kVertices> cut;
-  int cut_size = 0;
-  auto add = [](Piece& piece, const Eigen::Vector3d& p) -> std::uint8_t {
-    if (piece.num_vertices == Piece::kVertices) return kNone;
-    piece.v[static_cast<std::size_t>(piece.num_vertices)] = p;
-    return static_cast<std::uint8_t>(piece.num_vertices++);
-  };
-  for (int i = 0; i < in.num_vertices; ++i) {
+  std::array<std::uint8_t, Piece::kVertices> index;  // vertex i's index in its part
+  int num_below = 0, num_above = 0;
+  for (int i = 0; i < n; ++i) {
     const auto at = static_cast<std::size_t>(i);
     const double di = family.s(in.v[at]) - k;
     d[at] = std::abs(di) <= tolerance ? 0.0 : di;
-    to_below[at] = d[at] <= 0.0 ? add(below, in.v[at]) : kNone;
-    to_above[at] = d[at] >= 0.0 ? add(above, in.v[at]) : kNone;
-    if (d[at] == 0.0 && cut_size < Piece::kVertices) cut[static_cast<std::size_t>(cut_size++)] = {to_below[at], to_above[at]};
-  }
-  // Crossings of edges, from their lower-index end: one point an edge.
-  struct Crossing {
-    std::uint8_t lo, hi, below, above;
-  };
-  std::array<Crossing, Piece::kVertices> crossings;
-  int num_crossings = 0;
-  // Each edge's crossing is found again from its other face: looked up by
-  // the edge (LatticeSlicer::Crossings).
-  table.next();
-  auto crossing = [&](std::uint8_t i, std::uint8_t j) -> Crossing {
-    const std::uint8_t lo = std::min(i, j), hi = std::max(i, j);
-    const std::size_t key = std::size_t{lo} * Piece::kVertices + hi;
-    if (table.stamp[key] == table.generation) return crossings[table.index[key]];
-    const double dl = d[lo], dh = d[hi];
-    const Eigen::Vector3d x = in.v[lo] + (in.v[hi] - in.v[lo]) * (dl / (dl - dh));
-    const Crossing made = {lo, hi, add(below, x), add(above, x)};
-    if (num_crossings < Piece::kVertices) {
-      table.stamp[key] = table.generation;
-      table.index[key] = static_cast<std::uint8_t>(num_crossings);
-      crossings[static_cast<std::size_t>(num_crossings++)] = made;
+    if (d[at] < 0.0) {
+      index[at] = static_cast<std::uint8_t>(num_below);
+      below.v[static_cast<std::size_t>(num_below++)] = in.v[at];
+    } else {
+      index[at] = static_cast<std::uint8_t>(num_above);
+      above.v[static_cast<std::size_t>(num_above++)] = in.v[at];
     }
-    if (cut_size < Piece::kVertices) cut[static_cast<std::size_t>(cut_size++)] = {made.below, made.above};
-    return made;
-  };
-  auto push = [](Piece& piece, std::uint8_t vertex) {
-    const auto f = static_cast<std::size_t>(piece.num_faces);
-    if (vertex != kNone && piece.face_size[f] < Piece::kFaceVertices) piece.face[f][piece.face_size[f]++] = vertex;
-  };
-  for (int f = 0; f < in.num_faces; ++f) {
-    const auto& face = in.face[static_cast<std::size_t>(f)];
-    const int n = in.face_size[static_cast<std::size_t>(f)];
-    bool off = false;
-    for (int i = 0; i < n; ++i) off |= d[face[static_cast<std::size_t>(i)]] != 0.0;
-    if (!off) continue;  // on the plane: the cut replaces it
-    if (below.num_faces == Piece::kFaces || above.num_faces == Piece::kFaces) break;
-    below.face_size[static_cast<std::size_t>(below.num_faces)] = 0;
-    above.face_size[static_cast<std::size_t>(above.num_faces)] = 0;
-    for (int i = 0; i < n; ++i) {
-      const std::uint8_t a = face[static_cast<std::size_t>(i)],
-                         b = face[static_cast<std::size_t>(i + 1 < n ? i + 1 : 0)];
-      if (d[a] <= 0.0) push(below, to_below[a]);
-      if (d[a] >= 0.0) push(above, to_above[a]);
-      if ((d[a] < 0.0 && d[b] > 0.0) || (d[a] > 0.0 && d[b] < 0.0)) {
-        const Crossing x = crossing(a, b);
-        push(below, x.below);
-        push(above, x.above);
+  }
+  const int first_below = num_below, first_above = num_above;
+  for (int i = 0; i < n; ++i) {
+    const auto at = static_cast<std::size_t>(i);
+    const bool is_below = d[at] < 0.0;
+    Piece& part = is_below ? below : above;
+    int& count = is_below ? num_below : num_above;
+    const std::size_t me = index[at];
+    for (std::size_t m = 0; m < 3; ++m) {
+      const std::uint8_t j = in.next[at][m];
+      if ((d[j] < 0.0) == is_below) {
+        part.next[me][m] = index[j];
+        part.back[me][m] = in.back[at][m];
+        continue;
       }
+      if (count == Piece::kVertices) return false;
+      // The crossing from the lower end, so both parts get the same point.
+      const std::size_t lo = is_below ? at : j, hi = is_below ? j : at;
+      const auto w = static_cast<std::size_t>(count++);
+      part.v[w] = in.v[lo] + (in.v[hi] - in.v[lo]) * (d[lo] / (d[lo] - d[hi]));
+      part.next[w][0] = static_cast<std::uint8_t>(me);
+      part.back[w][0] = static_cast<std::uint8_t>(m);
+      part.next[me][m] = static_cast<std::uint8_t>(w);
+      part.back[me][m] = 0;
     }
-    if (below.face_size[static_cast<std::size_t>(below.num_faces)] >= 3) ++below.num_faces;
-    if (above.face_size[static_cast<std::size_t>(above.num_faces)] >= 3) ++above.num_faces;
   }
-  if (cut_size < 3 || below.num_faces == 0 || above.num_faces == 0) return;
-  // The cap: the cut's vertices counter-clockwise about ∇s (the outward
-  // normal of the part below), by a pseudo-angle about their mean (monotone
-  // in the angle, no trigonometry).
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (int i = 0; i < cut_size; ++i) centre += below.v[cut[static_cast<std::size_t>(i)][0]];
-  centre /= static_cast<double>(cut_size);
-  struct Around {  // no initialisers: only the cut's first cut_size are written and read
-    double angle;
-    int index;
-    bool operator<(const Around& o) const { return angle < o.angle || (angle == o.angle && index < o.index); }
+  below.num_vertices = num_below;
+  above.num_vertices = num_above;
+  // The caps: from new vertex w, the face through w → its kept end is walked
+  // (counter-clockwise from outside) to the next new vertex u; the cap edge
+  // u → w closes that face, so u is w's neighbour after the kept end and w
+  // is u's before it.
+  auto close = [](Piece& part, int first_new) {
+    for (int w = first_new; w < part.num_vertices; ++w) {
+      const auto ws = static_cast<std::size_t>(w);
+      std::size_t at = part.next[ws][0], slot = part.back[ws][0];  // at, reached by its edge `slot`
+      for (int steps = 0; at < static_cast<std::size_t>(first_new); ++steps) {
+        if (steps == part.num_vertices) return false;
+        const std::size_t leave = slot == 0 ? 2 : slot - 1;
+        slot = part.back[at][leave];
+        at = part.next[at][leave];
+      }
+      part.next[ws][1] = static_cast<std::uint8_t>(at);
+      part.back[ws][1] = 2;
+      part.next[at][2] = static_cast<std::uint8_t>(w);
+      part.back[at][2] = 1;
+    }
+    return true;
   };
-  std::array<Around, Piece::kVertices> around;
-  for (int i = 0; i < cut_size; ++i) {
-    const Eigen::Vector3d r = below.v[cut[static_cast<std::size_t>(i)][0]] - centre;
-    const double x = r.dot(family.e1), y = r.dot(family.e2);
-    const double norm = std::abs(x) + std::abs(y);
-    const double t = norm > 0.0 ? y / norm : 0.0;  // in [−1, 1] along the diamond
-    around[static_cast<std::size_t>(i)] = {x >= 0.0 ? t : (y >= 0.0 ? 2.0 - t : -2.0 - t), i};
-  }
-  std::sort(around.begin(), around.begin() + cut_size);
-  if (below.num_faces < Piece::kFaces) {
-    const auto f = static_cast<std::size_t>(below.num_faces++);
-    below.face_size[f] = 0;
-    for (int i = 0; i < cut_size && below.face_size[f] < Piece::kFaceVertices; ++i)
-      below.face[f][below.face_size[f]++] = cut[static_cast<std::size_t>(around[static_cast<std::size_t>(i)].index)][0];
-  }
-  if (above.num_faces < Piece::kFaces) {
-    const auto f = static_cast<std::size_t>(above.num_faces++);
-    above.face_size[f] = 0;
-    for (int i = cut_size - 1; i >= 0 && above.face_size[f] < Piece::kFaceVertices; --i)
-      above.face[f][above.face_size[f]++] = cut[static_cast<std::size_t>(around[static_cast<std::size_t>(i)].index)][1];
-  }
+  return close(below, first_below) && close(above, first_above);
 }
 
 /// Volume of a closed piece: Σ over faces of the cones from one vertex
-/// (divergence theorem; the faces through the apex add nothing).
+/// (divergence theorem), each face walked once, from the first of its
+/// edges met unwalked.
 double volume(const Piece& piece) {
-  if (piece.num_faces < 4) return 0.0;
+  const int n = piece.num_vertices;
+  if (n < 4) return 0.0;
   const Eigen::Vector3d& apex = piece.v[0];
+  std::array<std::uint8_t, Piece::kVertices> walked{};  // bit m: the edge along next[i][m] walked
   double six_v = 0.0;
-  for (int f = 0; f < piece.num_faces; ++f) {
-    const auto& face = piece.face[static_cast<std::size_t>(f)];
-    const Eigen::Vector3d a = piece.v[face[0]] - apex;
-    for (int i = 1; i + 1 < piece.face_size[static_cast<std::size_t>(f)]; ++i)
-      six_v += a.dot((piece.v[face[static_cast<std::size_t>(i)]] - apex).cross(piece.v[face[static_cast<std::size_t>(i + 1)]] - apex));
-  }
+  for (std::size_t i = 1; i < static_cast<std::size_t>(n); ++i)  // faces through the apex add nothing
+    for (std::size_t m = 0; m < 3; ++m) {
+      if (walked[i] & (1U << m)) continue;
+      walked[i] = static_cast<std::uint8_t>(walked[i] | (1U << m));
+      const Eigen::Vector3d a = piece.v[i] - apex;
+      std::size_t b = piece.next[i][m], slot = piece.back[i][m];
+      Eigen::Vector3d pb = piece.v[b] - apex;
+      for (int steps = 0; steps < n; ++steps) {
+        const std::size_t leave = slot == 0 ? 2 : slot - 1;
+        walked[b] = static_cast<std::uint8_t>(walked[b] | (1U << leave));
+        const std::size_t c = piece.next[b][leave];
+        if (c == i) break;
+        slot = piece.back[b][leave];
+        const Eigen::Vector3d pc = piece.v[c] - apex;
+        six_v += a.dot(pb.cross(pc));
+        b = c;
+        pb = pc;
+      }
+    }
   return six_v / 6.0;
 }
 
@@ -208,11 +222,10 @@ void LatticeSlicer::overlaps(const BccLattice& lattice, const std::array<Eigen::
   reserve(1);
   Piece& tet = pool_[pool_count_++];
   tet.num_vertices = 4;
-  tet.num_faces = 4;
   for (std::size_t k = 0; k < 4; ++k) {
     tet.v[k] = u[k];
-    tet.face_size[k] = 3;
-    for (std::size_t i = 0; i < 3; ++i) tet.face[k][i] = static_cast<std::uint8_t>(kTetFaces[k][i]);
+    tet.next[k] = kTetNeighbours[k];
+    tet.back[k] = kTetBack[k];
   }
   current_.assign(1, 0);
   for (const Family& family : kFamilies) {
@@ -242,10 +255,14 @@ void LatticeSlicer::overlaps(const BccLattice& lattice, const std::array<Eigen::
         }
         reserve(2);  // before taking references into the pool
         const std::size_t below = pool_count_++, above = pool_count_++;
-        split(pool_[piece], family, k, tolerance, pool_[below], pool_[above], crossings_);
-        if (pool_[below].num_faces >= 4 && !below_outside) next_.push_back(below);
+        if (!split(pool_[piece], family, k, tolerance, pool_[below], pool_[above])) {
+          ++fallbacks_;
+          overlaps_by_clipping(lattice, x, tolerance, out);
+          return;
+        }
+        if (!below_outside) next_.push_back(below);
         below_outside = false;
-        if (k >= s_max || pool_[above].num_faces < 4) break;  // above s_max: outside the block
+        if (k >= s_max) break;  // above s_max: outside the block
         piece = above;
       }
     }
@@ -270,6 +287,23 @@ void LatticeSlicer::overlaps(const BccLattice& lattice, const std::array<Eigen::
       out[kept++] = out[i];
   }
   out.resize(kept);
+}
+
+void overlaps_by_clipping(const BccLattice& lattice, const std::array<Eigen::Vector3d, 4>& x, double tolerance,
+                          std::vector<std::pair<BccLattice::Key, double>>& out) {
+  out.clear();
+  for (const Eigen::Vector3d& p : x)
+    if (!p.allFinite()) return;
+  const Eigen::Vector3d lo = x[0].cwiseMin(x[1]).cwiseMin(x[2]).cwiseMin(x[3]);
+  const Eigen::Vector3d hi = x[0].cwiseMax(x[1]).cwiseMax(x[2]).cwiseMax(x[3]);
+  lattice.for_each_tet_near(lo, hi, [&](BccLattice::Key key) {
+    const auto nodes = lattice.tet_nodes(key);
+    const std::array<Eigen::Vector3d, 4> t = {lattice.position(nodes[0]), lattice.position(nodes[1]),
+                                              lattice.position(nodes[2]), lattice.position(nodes[3])};
+    const double v = tet_overlap_volume(t, x, tolerance * lattice.spacing());
+    if (v > 0.0) out.emplace_back(key, v);
+  });
+  std::sort(out.begin(), out.end());
 }
 
 void LatticeSlicer::polygon_parts(const BccLattice& lattice, const Polygon& polygon, double tolerance,

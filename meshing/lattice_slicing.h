@@ -18,6 +18,13 @@
 
 namespace goo {
 
+/// The overlaps of the positively oriented tetrahedron x with the block's
+/// tetrahedra the slow way, as LatticeSlicer::overlaps gives them: every
+/// lattice tetrahedron near x's box clipped against x (tet_overlap_volume),
+/// volumes > 0 kept, keys increasing. Nothing for x not finite.
+void overlaps_by_clipping(const BccLattice& lattice, const std::array<Eigen::Vector3d, 4>& x, double tolerance,
+                          std::vector<std::pair<BccLattice::Key, double>>& out);
+
 /// A convex polygon's part in one lattice tetrahedron.
 struct PolygonPart {
   BccLattice::Key key;
@@ -35,33 +42,23 @@ class LatticeSlicer {
     std::array<Eigen::Vector3d, kCapacity> v;
     int size = 0;
   };
-  /// A convex polyhedron: its vertices once each, and its faces as lists of
-  /// vertex indices, counter-clockwise seen from outside. A piece is the
-  /// intersection of a tetrahedron (4 faces) and one slab of each family
-  /// sliced so far (2 faces each): at most 16 faces, so at most 28 vertices
-  /// (2F − 4) and 15 vertices a face.
+  /// A convex polyhedron as the graph of its vertices and edges, each vertex
+  /// with exactly three neighbours (Powell & Abel 2015's representation): a
+  /// cut by a plane keeps every vertex at three, since a new vertex on a cut
+  /// edge has that edge's kept end and its two neighbours along the cap.
+  /// `next[i]` lists vertex i's neighbours counter-clockwise seen from
+  /// outside, so a face is walked by leaving each vertex along the edge
+  /// before the one it was reached by; `back[i][m]` is where i is in the
+  /// list of its neighbour next[i][m], so the walk needs no search. A piece is a tetrahedron (4 faces)
+  /// cut by at most two planes of each family (one cap each): at most 16
+  /// faces, and a graph with three edges a vertex and F faces has 2F − 4
+  /// vertices, so at most 28 (vertices where a plane passes through a
+  /// vertex are copies at the same point, counted the same way).
   struct Piece {
-    static constexpr int kVertices = 32, kFaces = 16, kFaceVertices = 16;
+    static constexpr int kVertices = 32;
     std::array<Eigen::Vector3d, kVertices> v;
-    std::array<std::array<std::uint8_t, kFaceVertices>, kFaces> face;
-    std::array<std::uint8_t, kFaces> face_size;
-    int num_vertices = 0, num_faces = 0;
-  };
-
-  /// A split's edge crossings by edge (lo × Piece::kVertices + hi), found
-  /// again from an edge's second face: valid where stamped with the
-  /// split's generation (no clearing between splits).
-  struct Crossings {
-    std::array<std::uint32_t, Piece::kVertices * Piece::kVertices> stamp{};
-    std::array<std::uint8_t, Piece::kVertices * Piece::kVertices> index{};
-    std::uint32_t generation = 0;
-    /// A new split: every stamp stale (cleared only when the count wraps).
-    void next() {
-      if (++generation == 0) {
-        stamp.fill(0);
-        generation = 1;
-      }
-    }
+    std::array<std::array<std::uint8_t, 3>, kVertices> next, back;
+    int num_vertices = 0;
   };
 
   /// The volume of the positively oriented tetrahedron x in each lattice
@@ -70,8 +67,13 @@ class LatticeSlicer {
   /// outside the block are dropped). Vertices within `tolerance` (in units
   /// of the spacing) of a plane count as on it, so a face lying on a lattice
   /// plane cuts nothing off. Exact up to round-off.
+  /// If a cut ever leaves a piece the graph cannot hold (round-off making
+  /// a plane meet a piece's edges in more than one loop), the tetrahedron's
+  /// overlaps are taken by overlaps_by_clipping instead, and counted.
   void overlaps(const BccLattice& lattice, const std::array<Eigen::Vector3d, 4>& x, double tolerance,
                 std::vector<std::pair<BccLattice::Key, double>>& out);
+  /// Tetrahedra whose overlaps were taken by clipping since construction.
+  [[nodiscard]] std::size_t fallbacks() const { return fallbacks_; }
 
   /// The parts of the convex polygon `polygon` (world coordinates, at most
   /// 7 vertices: a clipped triangle's part in a tetrahedron is at most a
@@ -88,7 +90,7 @@ class LatticeSlicer {
   std::size_t pool_count_ = 0;
   std::vector<std::size_t> current_, next_;
   std::vector<Face> polygons_;
-  Crossings crossings_;
+  std::size_t fallbacks_ = 0;
 };
 
 }  // namespace goo

@@ -17,20 +17,11 @@ using Tet = std::array<Eigen::Vector3d, 4>;
 
 double signed_volume(const Tet& x) { return (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])) / 6.0; }
 
-/// The overlaps found the slow way: every lattice tetrahedron near the box
-/// clipped against the tetrahedron (convex_clip.h), volumes > 0 kept.
+/// The overlaps found the slow way (overlaps_by_clipping), by key.
 std::map<BccLattice::Key, double> clipped_pairwise(const BccLattice& lattice, const Tet& x) {
-  const Eigen::Vector3d lo = x[0].cwiseMin(x[1]).cwiseMin(x[2]).cwiseMin(x[3]);
-  const Eigen::Vector3d hi = x[0].cwiseMax(x[1]).cwiseMax(x[2]).cwiseMax(x[3]);
-  std::map<BccLattice::Key, double> out;
-  lattice.for_each_tet_near(lo, hi, [&](BccLattice::Key key) {
-    const auto nodes = lattice.tet_nodes(key);
-    const Tet t = {lattice.position(nodes[0]), lattice.position(nodes[1]), lattice.position(nodes[2]),
-                   lattice.position(nodes[3])};
-    const double v = tet_overlap_volume(t, x, 1e-12 * lattice.spacing());
-    if (v > 0.0) out[key] = v;
-  });
-  return out;
+  Parts parts;
+  overlaps_by_clipping(lattice, x, 1e-12, parts);
+  return {parts.begin(), parts.end()};
 }
 
 /// A random positive tetrahedron of size about `size` near `centre`.
@@ -107,6 +98,52 @@ TEST(LatticeSlicing, PartsAreThePairwiseClipsOverlaps) {
     }
   }
   EXPECT_GT(outside, 10);  // the block's border was exercised
+}
+
+// Tetrahedra whose corners sit on lattice nodes, on the planes' crossings
+// (quarter spacings) or within the tolerance of them: planes through
+// vertices, edges and faces, where a cut passes through a vertex and leaves
+// copies of it. The parts are the pairwise clip's, they add up to the
+// tetrahedron, and no piece outgrows the slicer's graph (no fallback).
+TEST(LatticeSlicing, DegenerateTetrahedraOnTheLatticesPlanesNeedNoFallback) {
+  const double h = 0.5;
+  const BccLattice lattice(Eigen::Vector3d(0.25, -0.5, 1.0), h, Eigen::Vector3i(10, 10, 10));
+  const double tol = kVolumeTolerance * h * h * h;
+  std::mt19937_64 rng(20261207);
+  std::uniform_int_distribution<int> quarter(12, 28);  // 3 to 7 spacings, in quarters
+  std::uniform_int_distribution<int> kind(0, 2);
+  std::uniform_real_distribution<double> tiny(-1e-13, 1e-13);
+  LatticeSlicer slicer;
+  Parts parts;
+  int tried = 0;
+  for (int trial = 0; trial < 600; ++trial) {
+    SCOPED_TRACE(trial);
+    Tet x;
+    for (auto& p : x) {
+      Eigen::Vector3d u(0.25 * quarter(rng), 0.25 * quarter(rng), 0.25 * quarter(rng));
+      if (kind(rng) == 1) u = u.array().round();                                  // a lattice corner node
+      if (trial % 3 == 0) u += Eigen::Vector3d(tiny(rng), tiny(rng), tiny(rng));  // within the tolerance
+      p = lattice.origin() + h * u;
+    }
+    if (signed_volume(x) < 0.0) std::swap(x[2], x[3]);
+    if (!(signed_volume(x) > 1e-3 * h * h * h)) continue;
+    ++tried;
+    slicer.overlaps(lattice, x, 1e-12, parts);
+    const std::map<BccLattice::Key, double> expected = clipped_pairwise(lattice, x);
+    double total = 0.0;
+    for (const auto& [key, v] : parts) {
+      const auto it = expected.find(key);
+      EXPECT_NEAR(v, it == expected.end() ? 0.0 : it->second, tol) << "key " << key;
+      total += v;
+    }
+    for (const auto& [key, v] : expected)
+      if (v > tol) {
+        EXPECT_TRUE(std::any_of(parts.begin(), parts.end(), [&](const auto& p) { return p.first == key; })) << key;
+      }
+    EXPECT_NEAR(total, signed_volume(x), tol * static_cast<double>(parts.size() + 1));
+  }
+  EXPECT_GT(tried, 300);
+  EXPECT_EQ(slicer.fallbacks(), 0U);
 }
 
 // A tetrahedron lying exactly on lattice planes: a lattice tetrahedron is
