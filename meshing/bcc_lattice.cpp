@@ -169,7 +169,10 @@ Eigen::Vector3i BccLattice::cell_of(const Eigen::Vector3d& p) const {
 }
 
 std::optional<BccLattice::Key> BccLattice::locate(const Eigen::Vector3d& p) const {
-  const Eigen::Vector3d q = (p - origin_) / h_;
+  return locate_units((p - origin_) / h_);
+}
+
+std::optional<BccLattice::Key> BccLattice::locate_units(const Eigen::Vector3d& q) const {
   if (!q.allFinite()) return std::nullopt;
   const Eigen::Vector3i cell = floor_cell(q);  // cell_of(p), bit for bit
   if ((cell.array() < 0).any() || (cell.array() >= cells_.array()).any()) return std::nullopt;

@@ -68,6 +68,9 @@ class BccLattice {
   /// (p on a shared face) pick one of the tetrahedra that contain p. Empty if
   /// that tetrahedron is not in the block.
   [[nodiscard]] std::optional<Key> locate(const Eigen::Vector3d& p) const;
+  /// The same for a point in lattice units, q = (p − origin) / spacing
+  /// (locate(p) is locate_units of that q, bit for bit).
+  [[nodiscard]] std::optional<Key> locate_units(const Eigen::Vector3d& q) const;
 
   /// Barycentric coordinates of p in a tetrahedron (in tet_nodes order).
   [[nodiscard]] Eigen::Vector4d barycentric(Key tet, const Eigen::Vector3d& p) const;

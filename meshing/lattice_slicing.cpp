@@ -275,7 +275,7 @@ void LatticeSlicer::overlaps(const BccLattice& lattice, const std::array<Eigen::
     if (!(v > 0.0)) continue;
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
     for (int i = 0; i < piece.num_vertices; ++i) mean += piece.v[static_cast<std::size_t>(i)];
-    const std::optional<BccLattice::Key> key = lattice.locate(lattice.origin() + (h / piece.num_vertices) * mean);
+    const std::optional<BccLattice::Key> key = lattice.locate_units(mean / piece.num_vertices);
     if (key) out.emplace_back(*key, v * h3);
   }
   std::sort(out.begin(), out.end());

@@ -93,6 +93,7 @@ TEST(BccLattice, LocateFindsTheOnlyTetrahedronContainingARandomPoint) {
     const Eigen::Vector3d p = lo + Eigen::Vector3d(u(rng), u(rng), u(rng)).cwiseProduct(hi - lo);
     const auto found = kLattice.locate(p);
     ASSERT_TRUE(found.has_value());
+    EXPECT_EQ(kLattice.locate_units((p - kLattice.origin()) / kLattice.spacing()), found);
     const Eigen::Vector4d b = kLattice.barycentric(*found, p);
     EXPECT_GE(b.minCoeff(), -1e-12) << "p is not in the located tetrahedron";
     EXPECT_NEAR(b.sum(), 1.0, 1e-14);
