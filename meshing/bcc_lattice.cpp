@@ -52,6 +52,12 @@ BccLattice::BccLattice(const Eigen::Vector3d& origin, double spacing, const Eige
     throw Error(fmt::format("a lattice block needs at least one cell per axis, got ({}, {}, {})", cells.x(), cells.y(),
                             cells.z()));
   }
+  // Cells are located by clamping lattice coordinates to ±2³⁰ (floor_cell),
+  // which a larger block would reach from inside.
+  if (!(cells.array() <= kMaxCellsPerAxis).all()) {
+    throw Error(fmt::format("a lattice block has at most {} cells per axis, got ({}, {}, {})", kMaxCellsPerAxis,
+                            cells.x(), cells.y(), cells.z()));
+  }
   num_corners_ = (cells_.cast<Key>().array() + 1).prod();
   for (int axis = 0; axis < 3; ++axis)
     for (int edge = 0; edge < 4; ++edge) {

@@ -19,7 +19,12 @@ namespace goo {
 class BccLattice {
  public:
   using Key = std::int64_t;
+  /// The largest block along an axis (lattice coordinates are clamped to
+  /// ±2³⁰ before they become cells).
+  static constexpr int kMaxCellsPerAxis = 1 << 30;
 
+  /// Throws Error for a spacing that is not positive and finite, or cells
+  /// outside [1, kMaxCellsPerAxis] along an axis.
   BccLattice(const Eigen::Vector3d& origin, double spacing, const Eigen::Vector3i& cells);
 
   [[nodiscard]] const Eigen::Vector3d& origin() const { return origin_; }

@@ -17,11 +17,20 @@ namespace {
 
 BccLattice block_around(const TriangleMesh& surface, double h) {
   if (!(h > 0.0) || !std::isfinite(h)) throw Error(fmt::format("lattice spacing must be positive, got {}", h));
+  for (Index v = 0; v < surface.num_vertices(); ++v)
+    if (!surface.vertices.row(v).allFinite())
+      throw Error(fmt::format("cannot build a lattice around a surface whose vertex {} is not finite", v));
   const Eigen::AlignedBox3d box = bounding_box(surface.vertices);
   if (box.isEmpty()) throw Error("cannot build a lattice around an empty surface");
   const Eigen::Vector3d origin = ((box.min() / h).array().floor() - 2.0).matrix() * h;
-  const Eigen::Vector3i cells = (((box.max() - origin) / h).array().ceil() + 2.0).cast<int>();
-  return BccLattice(origin, h, cells);
+  const Eigen::Array3d span = ((box.max() - origin) / h).array().ceil() + 2.0;
+  // Checked before the conversion to int (past its range undefined): a
+  // surface flung or stretched this far cannot be meshed at this spacing.
+  if (!(span <= static_cast<double>(BccLattice::kMaxCellsPerAxis)).all())
+    throw Error(
+        fmt::format("the surface spans ({:.3g}, {:.3g}, {:.3g}) lattice cells of {} m, more than {} along an axis",
+                    span.x(), span.y(), span.z(), h, BccLattice::kMaxCellsPerAxis));
+  return BccLattice(origin, h, span.cast<int>().matrix());
 }
 
 }  // namespace

@@ -217,5 +217,21 @@ TEST(BccLattice, OutsideTheBlockThereIsNoTetrahedron) {
   EXPECT_THROW(BccLattice(Eigen::Vector3d::Zero(), -1.0, Eigen::Vector3i::Ones()), Error);
 }
 
+// A block larger than the clamp of lattice coordinates (±2³⁰ cells) is
+// refused with an error that names the cells; the largest allowed is built.
+TEST(BccLattice, ABlockPastTheClampIsRefused) {
+  const int most = BccLattice::kMaxCellsPerAxis;
+  EXPECT_NO_THROW(BccLattice(Eigen::Vector3d::Zero(), 1.0, Eigen::Vector3i(most, 1, 1)));
+  for (const Eigen::Vector3i& cells : {Eigen::Vector3i(most + 1, 1, 1), Eigen::Vector3i(1, 1, most + 1),
+                                       Eigen::Vector3i(1, std::numeric_limits<int>::max(), 1)}) {
+    try {
+      const BccLattice lattice(Eigen::Vector3d::Zero(), 1.0, cells);
+      ADD_FAILURE() << "no error for " << cells.transpose();
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("at most 1073741824 cells per axis"), std::string::npos) << e.what();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace goo

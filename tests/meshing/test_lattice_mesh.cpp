@@ -2,7 +2,9 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <limits>
 #include <random>
+#include <string>
 
 #include "core/error.h"
 #include "core/primitives.h"
@@ -150,6 +152,27 @@ TEST(LatticeMesh, BitwiseIdenticalForOneAndTwoThreads) {
   EXPECT_TRUE(meshes[0].mesh.positions == meshes[1].mesh.positions);
   EXPECT_EQ(embeddings[0].parent, embeddings[1].parent);
   EXPECT_TRUE(embeddings[0].bary == embeddings[1].bary);
+}
+
+// A surface flung far out (one vertex 10¹² m away) spans more cells than a
+// block can hold, and one with a vertex not finite has no block at all:
+// errors that say so, not a conversion of the cell count past int's range
+// or a NaN left out of the bounding box.
+TEST(LatticeMesh, ASurfaceSpanningMoreThanABlockCanHoldOrNotFiniteIsRefused) {
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
+  for (const auto& [far, message] :
+       {std::pair{1e12, "more than 1073741824 along an axis"}, std::pair{inf, "vertex 3 is not finite"},
+        std::pair{nan, "vertex 3 is not finite"}}) {
+    SCOPED_TRACE(far);
+    TriangleMesh surface = make_box(Eigen::Vector3d::Ones(), 1);
+    surface.vertices(3, 1) = far;
+    try {
+      (void)build_lattice_mesh(surface, 0.1);
+      ADD_FAILURE() << "no error";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(LatticeMesh, IsDeterministicAndAlignedToTheWorldGrid) {
