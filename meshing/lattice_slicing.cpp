@@ -15,12 +15,10 @@ namespace {
 using Face = LatticeSlicer::Face;
 using Piece = LatticeSlicer::Piece;
 
-/// The planes s(u) = u_a + sign u_b = k, and a basis (e1, e2) of the plane
-/// with e1 × e2 along +∇s, to order a cut's points counter-clockwise.
+/// The planes s(u) = u_a + sign u_b = k.
 struct Family {
   int a, b;
   double sign;
-  Eigen::Vector3d e1, e2;
   [[nodiscard]] double s(const Eigen::Vector3d& u) const { return u[a] + sign * u[b]; }
 };
 
@@ -28,11 +26,7 @@ std::array<Family, 6> make_families() {
   std::array<Family, 6> out;
   int i = 0;
   for (const auto& [a, b] : {std::pair{0, 1}, std::pair{1, 2}, std::pair{0, 2}})
-    for (const double sign : {1.0, -1.0}) {
-      const Eigen::Vector3d n = (Eigen::Vector3d::Unit(a) + sign * Eigen::Vector3d::Unit(b)).normalized();
-      const Eigen::Vector3d e1 = n.unitOrthogonal();
-      out[static_cast<std::size_t>(i++)] = {a, b, sign, e1, n.cross(e1)};
-    }
+    for (const double sign : {1.0, -1.0}) out[static_cast<std::size_t>(i++)] = {a, b, sign};
   return out;
 }
 

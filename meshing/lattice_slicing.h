@@ -49,11 +49,12 @@ class LatticeSlicer {
   /// `next[i]` lists vertex i's neighbours counter-clockwise seen from
   /// outside, so a face is walked by leaving each vertex along the edge
   /// before the one it was reached by; `back[i][m]` is where i is in the
-  /// list of its neighbour next[i][m], so the walk needs no search. A piece is a tetrahedron (4 faces)
-  /// cut by at most two planes of each family (one cap each): at most 16
-  /// faces, and a graph with three edges a vertex and F faces has 2F − 4
-  /// vertices, so at most 28 (vertices where a plane passes through a
-  /// vertex are copies at the same point, counted the same way).
+  /// list of its neighbour next[i][m], so the walk needs no search. A piece
+  /// is a tetrahedron (4 faces) cut by at most two planes of each family
+  /// (one cap each): at most 16 faces, and a graph with three edges a vertex
+  /// and F faces has 2F − 4 vertices, so at most 28 (where a plane passes
+  /// through a vertex, the copies it leaves at the same point count the
+  /// same way).
   struct Piece {
     static constexpr int kVertices = 32;
     std::array<Eigen::Vector3d, kVertices> v;
