@@ -36,6 +36,20 @@ void push(Face& face, const Eigen::Vector3d& p) {
   if (face.size < Face::kCapacity) face.v[static_cast<std::size_t>(face.size++)] = p;
 }
 
+/// floor(x) for x of magnitude below 2⁶³ (the callers' x lies in the
+/// block's range of s, under 2³²): the bits of std::floor, the conversion
+/// toward zero moved down where it rounded up.
+double floor_in_block(double x) {
+  const double t = static_cast<double>(static_cast<std::int64_t>(x));
+  return t > x ? t - 1.0 : t;
+}
+
+/// `to` made a copy of `from`, moving only the vertices in use.
+void copy_face(const Face& from, Face& to) {
+  to.size = from.size;
+  for (int i = 0; i < from.size; ++i) to.v[static_cast<std::size_t>(i)] = from.v[static_cast<std::size_t>(i)];
+}
+
 /// The block's range of s: u lies in [0, cells] along each axis.
 std::pair<double, double> block_range(const Family& family, const Eigen::Vector3i& cells) {
   const auto ca = static_cast<double>(cells[family.a]), cb = static_cast<double>(cells[family.b]);
@@ -235,12 +249,9 @@ void LatticeSlicer::overlaps(const BccLattice& lattice, const std::array<Eigen::
       const Piece& in = pool_[piece];
       const auto [lo, hi] = extent(family, in.v.begin(), in.v.begin() + in.num_vertices);
       if (!std::isfinite(lo) || !std::isfinite(hi) || hi <= s_min + tolerance || lo >= s_max - tolerance) continue;
-      double k = std::floor(lo + tolerance) + 1.0;
-      bool below_outside = false;
-      if (k <= s_min) {
-        k = s_min;
-        below_outside = true;
-      }
+      // The first plane above lo: s_min when lo is below the block.
+      bool below_outside = lo + tolerance < s_min;
+      double k = below_outside ? s_min : floor_in_block(lo + tolerance) + 1.0;
       // The part above the plane k reaches from k to hi: the next plane is k + 1.
       for (;; k += 1.0) {
         if (!(k < hi - tolerance)) {
@@ -304,18 +315,24 @@ void LatticeSlicer::polygon_parts(const BccLattice& lattice, const Polygon& poly
                                   std::vector<PolygonPart>& out) {
   out.clear();
   const double h = lattice.spacing();
-  polygons_.resize(1);
+  const Eigen::Vector3d& origin = lattice.origin();
+  // The polygons live in polygons_[0, count): a slot is reused from call to
+  // call, and each copy moves only the vertices in use.
+  std::size_t count = 1;
+  reserve_polygons(count);
   Face& first = polygons_[0];
   first.size = 0;
-  for (int i = 0; i < polygon.size; ++i) push(first, (polygon.v[static_cast<std::size_t>(i)] - lattice.origin()) / h);
+  for (int i = 0; i < polygon.size; ++i) push(first, (polygon.v[static_cast<std::size_t>(i)] - origin) / h);
   std::array<double, Face::kCapacity> d{};
+  std::array<Face, 2> ahead;  // the part above the last plane, and the next one
+  Face below;
   for (const Family& family : kFamilies) {
     // A polygon the family does not cut stays where it is; one it cuts is
     // replaced by its lowest part, the others appended (and not looked at
     // again for this family).
-    const std::size_t count = polygons_.size();
+    const std::size_t before = count;
     const auto [s_min, s_max] = block_range(family, lattice.cells());
-    for (std::size_t index = 0; index < count; ++index) {
+    for (std::size_t index = 0; index < before; ++index) {
       if (polygons_[index].size == 0) continue;
       const auto [lo, hi] =
           extent(family, polygons_[index].v.begin(), polygons_[index].v.begin() + polygons_[index].size);
@@ -324,52 +341,59 @@ void LatticeSlicer::polygon_parts(const BccLattice& lattice, const Polygon& poly
         polygons_[index].size = 0;
         continue;
       }
-      double k = std::floor(lo + tolerance) + 1.0;
-      bool below_outside = false;
-      if (k <= s_min) {
-        k = s_min;
-        below_outside = true;
-      }
+      // The first plane above lo: s_min when lo is below the block.
+      bool below_outside = lo + tolerance < s_min;
+      double k = below_outside ? s_min : floor_in_block(lo + tolerance) + 1.0;
       if (!(k < hi - tolerance)) continue;
-      Face piece = polygons_[index];
+      // The piece being cut: the polygon in its slot for the first plane,
+      // then the part above the last plane (the slot may by then hold the
+      // lowest part).
+      const Face* piece = &polygons_[index];
+      std::size_t turn = 0;
       bool first_part = true;
       for (;; k += 1.0) {
         if (!(k < hi - tolerance)) {
-          polygons_.push_back(piece);
+          reserve_polygons(count + 1);
+          copy_face(*piece, polygons_[count++]);
           break;
         }
         // Sutherland–Hodgman to both sides at once.
-        Face below, above;
-        for (int i = 0; i < piece.size; ++i) {
-          const double di = family.s(piece.v[static_cast<std::size_t>(i)]) - k;
+        Face& above = ahead[turn];
+        turn ^= 1U;
+        below.size = 0;
+        above.size = 0;
+        for (int i = 0; i < piece->size; ++i) {
+          const double di = family.s(piece->v[static_cast<std::size_t>(i)]) - k;
           d[static_cast<std::size_t>(i)] = std::abs(di) <= tolerance ? 0.0 : di;
         }
-        for (int i = 0; i < piece.size; ++i) {
-          const auto a = static_cast<std::size_t>(i), b = static_cast<std::size_t>(i + 1 < piece.size ? i + 1 : 0);
-          if (d[a] <= 0.0) push(below, piece.v[a]);
-          if (d[a] >= 0.0) push(above, piece.v[a]);
+        for (int i = 0; i < piece->size; ++i) {
+          const auto a = static_cast<std::size_t>(i), b = static_cast<std::size_t>(i + 1 < piece->size ? i + 1 : 0);
+          if (d[a] <= 0.0) push(below, piece->v[a]);
+          if (d[a] >= 0.0) push(above, piece->v[a]);
           if ((d[a] < 0.0 && d[b] > 0.0) || (d[a] > 0.0 && d[b] < 0.0)) {
-            const Eigen::Vector3d x = edge_crossing(piece.v[a], d[a], piece.v[b], d[b]);
+            const Eigen::Vector3d x = edge_crossing(piece->v[a], d[a], piece->v[b], d[b]);
             push(below, x);
             push(above, x);
           }
         }
         if (below.size >= 3 && !below_outside) {
           if (first_part) {
-            polygons_[index] = below;
+            copy_face(below, polygons_[index]);
             first_part = false;
           } else {
-            polygons_.push_back(below);
+            reserve_polygons(count + 1);
+            copy_face(below, polygons_[count++]);
           }
         }
         below_outside = false;
         if (k >= s_max || above.size < 3) break;  // above s_max: outside the block
-        piece = above;
+        piece = &above;
       }
       if (first_part) polygons_[index].size = 0;  // nothing below the first plane: dropped
     }
   }
-  for (const Face& piece : polygons_) {
+  for (std::size_t index = 0; index < count; ++index) {
+    const Face& piece = polygons_[index];
     if (piece.size < 3 || piece.size > Polygon::kCapacity) continue;  // cannot happen: a part has at most 7 vertices
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
     for (int i = 0; i < piece.size; ++i) mean += piece.v[static_cast<std::size_t>(i)];
@@ -378,13 +402,21 @@ void LatticeSlicer::polygon_parts(const BccLattice& lattice, const Polygon& poly
     for (int i = 1; i + 1 < piece.size; ++i)
       area += (piece.v[static_cast<std::size_t>(i)] - piece.v[0]).cross(piece.v[static_cast<std::size_t>(i + 1)] - piece.v[0]);
     if (area.squaredNorm() == 0.0) continue;
-    const std::optional<BccLattice::Key> key = lattice.locate(lattice.origin() + (h / piece.size) * mean);
+    // Located as locate(p) would be, p the mean in world units: a part lying
+    // on a lattice face keeps the tetrahedron that rounding gives it there.
+    const Eigen::Vector3d p = origin + (h / piece.size) * mean;
+    const std::optional<BccLattice::Key> key = lattice.locate_units((p - origin) / h);
     if (!key) continue;
     PolygonPart& part = out.emplace_back();
     part.key = *key;
-    part.polygon.size = 0;
-    for (int i = 0; i < piece.size; ++i) part.polygon.push(lattice.origin() + h * piece.v[static_cast<std::size_t>(i)]);
+    part.polygon.size = piece.size;
+    for (int i = 0; i < piece.size; ++i)
+      part.polygon.v[static_cast<std::size_t>(i)] = origin + h * piece.v[static_cast<std::size_t>(i)];
   }
+}
+
+void LatticeSlicer::reserve_polygons(std::size_t count) {
+  if (polygons_.size() < count) polygons_.resize(std::max<std::size_t>(2 * count, 16));
 }
 
 }  // namespace goo

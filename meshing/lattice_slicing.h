@@ -87,6 +87,7 @@ class LatticeSlicer {
 
  private:
   void reserve(std::size_t more);
+  void reserve_polygons(std::size_t count);
   std::vector<Piece> pool_;
   std::size_t pool_count_ = 0;
   std::vector<std::size_t> current_, next_;
