@@ -5,7 +5,10 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
+#include <atomic>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 #include "core/error.h"
@@ -58,6 +61,11 @@ double distance_to(const OldElement& o, const Eigen::Vector3d& p) {
     d = std::min(d, point_triangle_distance(p, o.x[static_cast<std::size_t>(f[0])], o.x[static_cast<std::size_t>(f[1])],
                                             o.x[static_cast<std::size_t>(f[2])]));
   return d;
+}
+
+/// The distance from p to o's bounding box: at most p's distance to o.
+double box_distance(const OldElement& o, const Eigen::Vector3d& p) {
+  return ((o.lo - p).cwiseMax(0.0) + (p - o.hi).cwiseMax(0.0)).norm();
 }
 
 /// Runs f(old element, output list) over old elements in fixed chunks, in
@@ -127,9 +135,43 @@ NodeSources locate_in_old_mesh(const Tets& old_tets, const Points& old_x, const 
   for (const auto& o : old) all.extend(o.lo).extend(o.hi);
   const double reach = 2.0 * (all.diagonal().norm() + (lattice.cells().cast<double>() * lattice.spacing()).norm());
   Index left = out.extrapolated;
+  // Each round, first a bound on the distance of each node still missing:
+  // its distance to the nearest corner of a usable old element within the
+  // round's radius along each axis (a minimum, so the same for any order).
+  // An element farther from the node than that, by its bounding box and a
+  // margin far above the distances' round-off, can neither be the nearest
+  // nor tie with it, and is not measured: the nearest element found is the
+  // same as measuring every one gives (the least distance, the lower
+  // element on a tie).
+  std::vector<std::uint8_t> corner(static_cast<std::size_t>(old_x.rows()), 0);
+  for (std::size_t k = 0; k < old.size(); ++k)
+    if (old[k].usable)
+      for (int i = 0; i < 4; ++i) corner[at(old_tets(static_cast<Index>(k), i))] = 1;
+  std::vector<std::atomic<std::uint64_t>> bound(at(nn));
   while (left > 0) {
     if (radius > reach) throw Error("re-mesh: a new node is farther from the old mesh than the meshes are large");
     const Eigen::Vector3d grow = Eigen::Vector3d::Constant(radius);
+    for (Index n = 0; n < nn; ++n) {
+      missing[at(n)] = element[at(n)] < 0;  // found in an earlier round: the nearest already
+      bound[at(n)].store(std::bit_cast<std::uint64_t>(std::numeric_limits<double>::infinity()),
+                         std::memory_order_relaxed);
+    }
+    tbb::parallel_for(tbb::blocked_range<Index>(0, static_cast<Index>(old_x.rows()), kParallelGrain),
+                      [&](const tbb::blocked_range<Index>& r) {
+                        for (Index v = r.begin(); v != r.end(); ++v) {
+                          if (!corner[at(v)]) continue;
+                          const Eigen::Vector3d x = old_x.row(v).transpose();
+                          lattice.for_each_node_in(x - grow, x + grow, [&](BccLattice::Key key) {
+                            const Index n = new_mesh.node(key);
+                            if (n < 0 || !missing[at(n)]) return;
+                            const std::uint64_t bits = std::bit_cast<std::uint64_t>((x - lattice.position(key)).norm());
+                            std::atomic<std::uint64_t>& slot = bound[at(n)];
+                            std::uint64_t seen = slot.load(std::memory_order_relaxed);
+                            while (bits < seen && !slot.compare_exchange_weak(seen, bits)) {
+                            }
+                          });
+                        }
+                      });
     keep_best(per_old_chunk<Candidate>(old.size(),
                                        [&](Index k, std::vector<Candidate>& found) {
                                          const OldElement& o = old[at(k)];
@@ -137,7 +179,11 @@ NodeSources locate_in_old_mesh(const Tets& old_tets, const Points& old_x, const 
                                          lattice.for_each_node_in(o.lo - grow, o.hi + grow, [&](BccLattice::Key key) {
                                            const Index n = new_mesh.node(key);
                                            if (n < 0 || !missing[at(n)]) return;
-                                           const double d = distance_to(o, lattice.position(key));
+                                           const Eigen::Vector3d p = lattice.position(key);
+                                           const double most = std::bit_cast<double>(bound[at(n)].load());
+                                           const double margin = 1e-9 * (lattice.spacing() + p.cwiseAbs().maxCoeff());
+                                           if (box_distance(o, p) > most + margin) return;
+                                           const double d = distance_to(o, p);
                                            if (d <= radius) found.push_back({n, k, -d});
                                          });
                                        }),

@@ -3,11 +3,14 @@
 
 #include <algorithm>
 #include <iterator>
+#include <limits>
 #include <random>
 
 #include "core/elastic_forces.h"
 #include "core/primitives.h"
 #include "core/surface_geometry.h"
+#include "meshing/convex_clip.h"
+#include "meshing/lattice_mesh.h"
 #include "meshing/surface_upkeep.h"
 #include "meshing/transfer.h"
 #include "solvers/newmark.h"
@@ -57,6 +60,83 @@ TEST(Remesh, ReproducesAnAffineVelocityFieldIncludingExtrapolatedNodes) {
   EXPECT_GT(report.extrapolated_nodes, 0);
   const Points expected = (mb.body.positions * B.transpose()).rowwise() + Eigen::RowVector3d(0.5, 1.0, -2.0);
   EXPECT_TRUE(test::matrices_near(mb.body.velocities, expected, 1e-12 * expected.cwiseAbs().maxCoeff()));
+}
+
+/// Distance from p to the tetrahedron x (0 inside), by its four faces.
+double tet_distance(const std::array<Eigen::Vector3d, 4>& x, const Eigen::Vector3d& p) {
+  Eigen::Matrix3d Ds;
+  for (int k = 0; k < 3; ++k) Ds.col(k) = x[static_cast<std::size_t>(k + 1)] - x[0];
+  const Eigen::Vector3d b = Ds.inverse() * (p - x[0]);
+  if (b.minCoeff() >= 0.0 && b.sum() <= 1.0) return 0.0;
+  double d = std::numeric_limits<double>::infinity();
+  for (const auto& f : kTetFaces)
+    d = std::min(d, point_triangle_distance(p, x[static_cast<std::size_t>(f[0])], x[static_cast<std::size_t>(f[1])],
+                                            x[static_cast<std::size_t>(f[2])]));
+  return d;
+}
+
+TEST(Remesh, EachExtrapolatedNodeTakesANearestUsableOldElement) {
+  // A sphere jittered by a fifth of its spacing, one surface node pushed
+  // in far enough to invert or flatten its elements (which no node may be
+  // extrapolated from), onto a coarser lattice that reaches beyond it.
+  const double h = 0.1;
+  MeshedBody old = moved_sphere(h, stretch_and_rotation(), Eigen::Matrix3d::Zero());
+  std::mt19937 rng(20261208);
+  std::uniform_real_distribution<double> jitter(-0.2 * h, 0.2 * h);
+  for (Index n = 0; n < old.body.num_nodes(); ++n)
+    for (int c = 0; c < 3; ++c) old.body.positions(n, c) += jitter(rng);
+  Index top = 0;
+  for (Index n = 1; n < old.body.num_nodes(); ++n)
+    if (old.body.positions(n, 2) > old.body.positions(top, 2)) top = n;
+  old.body.positions(top, 2) -= 3.0 * h;
+  const Tets& tets = old.body.tets;
+  const Points& x = old.body.positions;
+  auto corners = [&](Index e) {
+    std::array<Eigen::Vector3d, 4> out;
+    for (int k = 0; k < 4; ++k) out[static_cast<std::size_t>(k)] = x.row(tets(e, k)).transpose();
+    return out;
+  };
+  // Usable as the transfer has it: positively oriented, not flat against its box.
+  std::vector<Index> usable;
+  for (Index e = 0; e < old.body.num_elements(); ++e) {
+    const auto c = corners(e);
+    const Eigen::Vector3d lo = c[0].cwiseMin(c[1]).cwiseMin(c[2]).cwiseMin(c[3]);
+    const Eigen::Vector3d hi = c[0].cwiseMax(c[1]).cwiseMax(c[2]).cwiseMax(c[3]);
+    const double scale = (hi - lo).maxCoeff();
+    if ((c[1] - c[0]).dot((c[2] - c[0]).cross(c[3] - c[0])) > 1e-12 * scale * scale * scale) usable.push_back(e);
+  }
+  ASSERT_LT(usable.size(), static_cast<std::size_t>(old.body.num_elements()));  // some inverted or flat
+  const LatticeMesh lm = build_lattice_mesh(old.surface(), 0.17);
+  const NodeSources sources = locate_in_old_mesh(tets, x, lm);
+  ASSERT_GT(sources.extrapolated, 20);
+  Index checked = 0;
+  for (Index n = 0; n < lm.mesh.num_nodes(); ++n) {
+    const Eigen::Vector3d p = lm.mesh.positions.row(n).transpose();
+    const Index chosen = sources.element[static_cast<std::size_t>(n)];
+    ASSERT_TRUE(std::binary_search(usable.begin(), usable.end(), chosen)) << "node " << n;
+    if (sources.bary.row(n).minCoeff() >= -1e-9) continue;  // interpolated
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Index e : usable) nearest = std::min(nearest, tet_distance(corners(e), p));
+    // Ties and round-off aside, no usable element is nearer than the one taken.
+    EXPECT_LE(tet_distance(corners(chosen), p), nearest + 1e-12) << "node " << n;
+    ++checked;
+  }
+  EXPECT_GE(checked, sources.extrapolated);
+
+  // An element turned inside out beside the new nodes bounds no distance:
+  // the one usable element, a lattice spacing and more away, is the source
+  // of every node.
+  Tets two(2, 4);
+  two << 0, 1, 2, 3, 4, 6, 5, 7;  // the second inverted
+  Points y(8, 3);
+  y << 0, 0, 0, 0.1, 0, 0, 0, 0.1, 0, 0, 0, 0.1,  //
+      0.4, 0, 0, 0.5, 0, 0, 0.4, 0.1, 0, 0.4, 0, 0.1;
+  TriangleMesh ball = make_sphere(0.15, 12);
+  ball.vertices.rowwise() += Eigen::RowVector3d(0.45, 0.05, 0.05);
+  const LatticeMesh beside = build_lattice_mesh(ball, 0.1);
+  const NodeSources from_one = locate_in_old_mesh(two, y, beside);
+  EXPECT_EQ(from_one.extrapolated, beside.mesh.num_nodes());
+  for (const Index e : from_one.element) ASSERT_EQ(e, 0);
 }
 
 TEST(Remesh, KeepsAUniformlyStretchedAndRotatedBodysStress) {
