@@ -33,11 +33,15 @@ std::array<Eigen::Vector3d, 4> local_nodes(int axis, int edge) {
 /// past ±2³⁰ cells (a finite point far outside any block, an infinite or NaN
 /// one) is clamped to ±2³⁰ first: converting a double beyond int's range is
 /// undefined, and a caller's cell ± 1 must not overflow either. Every block
-/// is far smaller, so clamped cells are outside it as before.
+/// is far smaller, so clamped cells are outside it as before. Within ±2³⁰
+/// the floor is the conversion toward zero, one less where that rounded
+/// up: std::floor's value, without its general path.
 Eigen::Vector3i floor_cell(const Eigen::Vector3d& q) {
   constexpr double kFar = 1 << 30;
   const auto floor_clamped = [](double x) {
-    return static_cast<int>(std::floor(!(x >= -kFar) ? -kFar : (x > kFar ? kFar : x)));  // NaN: -2³⁰
+    const double c = !(x >= -kFar) ? -kFar : (x > kFar ? kFar : x);  // NaN: -2³⁰
+    const int t = static_cast<int>(c);
+    return static_cast<double>(t) > c ? t - 1 : t;
   };
   return {floor_clamped(q.x()), floor_clamped(q.y()), floor_clamped(q.z())};
 }
