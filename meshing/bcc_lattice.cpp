@@ -159,6 +159,15 @@ std::array<Eigen::Vector3i, 4> BccLattice::tet_node_coordinates(const Eigen::Vec
   return out;
 }
 
+std::array<BccLattice::Key, 4> BccLattice::face_corners(const Eigen::Vector3i& cell, int axis) const {
+  const int b = (axis + 1) % 3, c = (axis + 2) % 3;
+  std::array<Key, 4> out;
+  for (std::size_t q = 0; q < 4; ++q)
+    out[q] = corner_key(cell + Eigen::Vector3i::Unit(axis) + kFaceCorners[q][0] * Eigen::Vector3i::Unit(b) +
+                        kFaceCorners[q][1] * Eigen::Vector3i::Unit(c));
+  return out;
+}
+
 std::array<BccLattice::Key, 4> BccLattice::tet_nodes(const Eigen::Vector3i& cell, int axis, int edge) const {
   const auto ijk = tet_node_coordinates(cell, axis, edge);
   return {centre_key(ijk[0]), centre_key(ijk[1]), corner_key(ijk[2]), corner_key(ijk[3])};

@@ -60,6 +60,10 @@ class BccLattice {
   /// The same for the tetrahedron tet_key(cell, axis, edge), without
   /// decoding a key.
   [[nodiscard]] std::array<Key, 4> tet_nodes(const Eigen::Vector3i& cell, int axis, int edge) const;
+  /// The four corners of the face `cell` shares with cell + e_axis, in
+  /// order around it: the tetrahedron (cell, axis, edge) has corners edge
+  /// and edge + 1 (mod 4) of them (tet_nodes' last two, in some order).
+  [[nodiscard]] std::array<Key, 4> face_corners(const Eigen::Vector3i& cell, int axis) const;
   /// Their positions (position() of each, bit for bit).
   [[nodiscard]] std::array<Eigen::Vector3d, 4> tet_positions(const Eigen::Vector3i& cell, int axis, int edge) const;
   /// Dm⁻¹ of a tetrahedron: every lattice tetrahedron is one of 12 shapes.

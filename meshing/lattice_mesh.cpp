@@ -73,19 +73,26 @@ LatticeMesh build_lattice_mesh(const TriangleMesh& surface, double h) {
   const BccLattice& lattice = out.lattice;
   const std::vector<std::uint8_t> inside = voxelize(lattice, surface);
   std::vector<std::uint8_t> keep(static_cast<std::size_t>(lattice.num_tet_keys()), 0);
-  // Tetrahedra with an inside node.
-  // Per layer of cells, each cell's twelve shapes (the key order), without
-  // decoding keys.
+  // Tetrahedra with an inside node. Per layer of cells, each cell's three
+  // pairs of centres (the cell's and the next one's along an axis) and the
+  // four corners of the face between them: tetrahedron (cell, axis, edge)
+  // has both centres and corners edge and edge + 1 of that face.
   const Eigen::Vector3i cells = lattice.cells();
+  const auto is_inside = [&](BccLattice::Key n) { return inside[static_cast<std::size_t>(n)] != 0; };
   tbb::parallel_for(0, cells.z(), [&](int k) {
     for (int j = 0; j < cells.y(); ++j)
       for (int i = 0; i < cells.x(); ++i) {
         const Eigen::Vector3i cell(i, j, k);
-        for (int shape = 0; shape < 12; ++shape) {
-          const int axis = shape / 4;
+        const bool centre = is_inside(lattice.centre_key(cell));
+        for (int axis = 0; axis < 3; ++axis) {
           if (cell[axis] + 1 >= cells[axis]) continue;  // not valid: the upper centre is outside the block
-          for (const auto n : lattice.tet_nodes(cell, axis, shape % 4))
-            if (inside[static_cast<std::size_t>(n)]) keep[static_cast<std::size_t>(lattice.tet_key(cell, axis, shape % 4))] = 1;
+          const bool centres = centre || is_inside(lattice.centre_key(cell + Eigen::Vector3i::Unit(axis)));
+          std::array<bool, 4> corner{};
+          const auto face = lattice.face_corners(cell, axis);
+          for (std::size_t q = 0; q < 4; ++q) corner[q] = is_inside(face[q]);
+          for (int edge = 0; edge < 4; ++edge)
+            if (centres || corner[static_cast<std::size_t>(edge)] || corner[static_cast<std::size_t>((edge + 1) % 4)])
+              keep[static_cast<std::size_t>(lattice.tet_key(cell, axis, edge))] = 1;
         }
       }
   });

@@ -45,6 +45,32 @@ TEST(BccLattice, TetrahedraAreCongruentPositiveAndMatchTheirDmInverse) {
   }
 }
 
+TEST(BccLattice, ATetrahedronsCornersAreItsEdgeOfTheFaceBetweenItsCentres) {
+  Index checked = 0;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int k = 0; k < kLattice.cells().z(); ++k)
+      for (int j = 0; j < kLattice.cells().y(); ++j)
+        for (int i = 0; i < kLattice.cells().x(); ++i) {
+          const Eigen::Vector3i cell(i, j, k);
+          if (cell[axis] + 1 >= kLattice.cells()[axis]) continue;
+          const auto face = kLattice.face_corners(cell, axis);
+          // Four distinct corners, each a lattice spacing from the next.
+          for (std::size_t q = 0; q < 4; ++q)
+            ASSERT_NEAR((kLattice.position(face[q]) - kLattice.position(face[(q + 1) % 4])).norm(), kLattice.spacing(),
+                        1e-12);
+          for (int edge = 0; edge < 4; ++edge) {
+            const auto nodes = kLattice.tet_nodes(cell, axis, edge);
+            const std::array<BccLattice::Key, 2> expected = {face[static_cast<std::size_t>(edge)],
+                                                             face[static_cast<std::size_t>((edge + 1) % 4)]};
+            EXPECT_TRUE((nodes[2] == expected[0] && nodes[3] == expected[1]) ||
+                        (nodes[2] == expected[1] && nodes[3] == expected[0]))
+                << "cell " << cell.transpose() << " axis " << axis << " edge " << edge;
+            ++checked;
+          }
+        }
+  EXPECT_EQ(checked, static_cast<Index>(all_tets(kLattice).size()));
+}
+
 TEST(BccLattice, FacesAreSharedByAtMostTwoTetrahedraWithOppositeOrientation) {
   // Conforming: a triangle is a face of one tetrahedron (block boundary) or
   // of two, which see it with opposite outward orientations.
