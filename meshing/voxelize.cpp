@@ -40,11 +40,12 @@ int side_with_tiebreak(const Eigen::Vector3d& u, const Eigen::Vector3d& v, const
   return v.x() > u.x() ? 1 : -1;
 }
 
-/// Whether the crossing of triangle (a, b, c) lies above the node p + (ε, ε², ε³).
-bool crossing_above(const Crossing& c, const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& cc,
-                    const Eigen::Vector3d& p) {
+/// Whether the crossing of its triangle lies above the node p + (ε, ε², ε³).
+/// The triangle's corners are read only where the float height cannot tell.
+bool crossing_above(const Crossing& c, const TriangleMesh& surface, const Eigen::Vector3d& p) {
   const double dz = c.z - p.z();
   if (std::abs(dz) > c.tolerance) return dz > 0.0;
+  const auto [a, b, cc] = surface.corners(c.triangle);
   const int o = exact::orient_3d(a, b, cc, p);
   // p below the plane (so the crossing above it) when (p − a)·n has the sign
   // opposite to n_z.
@@ -79,22 +80,25 @@ std::vector<std::uint8_t> voxelize(const BccLattice& lattice, const TriangleMesh
       auto& found = chunks[chunk];
       auto visit = [&](Index t) {
         const auto [a, b, c] = surface.corners(t);
+        const Eigen::Vector3d lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
+        // The columns in the triangle's box, widened by 1e-7 h: far more than
+        // the rounding of these quotients, so a column on the box's edge (whose
+        // shifted ray may meet the triangle) is never left out. Most
+        // triangles, smaller than the spacing, lie between columns.
+        constexpr double kMargin = 1e-7;
+        const int i0 = std::max(0, static_cast<int>(std::ceil((lo.x() - o.x()) / h - grid.offset - kMargin)));
+        const int i1 =
+            std::min(grid.count.x() - 1, static_cast<int>(std::floor((hi.x() - o.x()) / h - grid.offset + kMargin)));
+        if (i1 < i0) return;
+        const int j0 = std::max(0, static_cast<int>(std::ceil((lo.y() - o.y()) / h - grid.offset - kMargin)));
+        const int j1 =
+            std::min(grid.count.y() - 1, static_cast<int>(std::floor((hi.y() - o.y()) / h - grid.offset + kMargin)));
+        if (j1 < j0) return;
         const int sign = exact::orient_xy(a, b, c);
         if (sign == 0) return;  // vertical: the shifted ray never meets it
         const Eigen::Vector3d& u0 = a;
         const Eigen::Vector3d& u1 = sign > 0 ? b : c;
         const Eigen::Vector3d& u2 = sign > 0 ? c : b;
-        const Eigen::Vector3d lo = a.cwiseMin(b).cwiseMin(c), hi = a.cwiseMax(b).cwiseMax(c);
-        // The columns in the triangle's box, widened by 1e-7 h: far more than
-        // the rounding of these quotients, so a column on the box's edge (whose
-        // shifted ray may meet the triangle) is never left out.
-        constexpr double kMargin = 1e-7;
-        const int i0 = std::max(0, static_cast<int>(std::ceil((lo.x() - o.x()) / h - grid.offset - kMargin)));
-        const int i1 =
-            std::min(grid.count.x() - 1, static_cast<int>(std::floor((hi.x() - o.x()) / h - grid.offset + kMargin)));
-        const int j0 = std::max(0, static_cast<int>(std::ceil((lo.y() - o.y()) / h - grid.offset - kMargin)));
-        const int j1 =
-            std::min(grid.count.y() - 1, static_cast<int>(std::floor((hi.y() - o.y()) / h - grid.offset + kMargin)));
         const Eigen::Vector3d normal = (b - a).cross(c - a);
         const double extent = (hi - lo).norm() + lo.cwiseAbs().maxCoeff() + hi.cwiseAbs().maxCoeff();
         // z = a_z − (n_x (x − a_x) + n_y (y − a_y)) / n_z: its rounding error
@@ -130,12 +134,8 @@ std::vector<std::uint8_t> voxelize(const BccLattice& lattice, const TriangleMesh
           const Eigen::Vector3d p(o.x() + (i + grid.offset) * h, o.y() + (j + grid.offset) * h,
                                   o.z() + (k + grid.offset) * h);
           int winding = 0;
-          for (const Crossing& c : list) {
-            const Eigen::Vector3d a = surface.vertices.row(surface.triangles(c.triangle, 0));
-            const Eigen::Vector3d b = surface.vertices.row(surface.triangles(c.triangle, 1));
-            const Eigen::Vector3d cc = surface.vertices.row(surface.triangles(c.triangle, 2));
-            if (crossing_above(c, a, b, cc, p)) winding += c.sign;
-          }
+          for (const Crossing& c : list)
+            if (crossing_above(c, surface, p)) winding += c.sign;
           if (winding != 0) {
             const Eigen::Vector3i ijk(i, j, k);
             inside[static_cast<std::size_t>(grid.offset == 0.0 ? lattice.corner_key(ijk) : lattice.centre_key(ijk))] =
