@@ -6,6 +6,7 @@
 // congruent (edges h, h and four of h√3/2; volume h³/12).
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <optional>
 
@@ -133,12 +134,21 @@ class BccLattice {
   /// (corners first, then centres, each in increasing key order).
   template <class F>
   void for_each_node_in(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, F&& f) const {
+    const Eigen::Vector3d ql = (lo - origin_) / h_, qh = (hi - origin_) / h_;
+    // Each coordinate clamped to [−1, top + 1] before its conversion (past
+    // int's range undefined): a box reaching far out visits the nodes of the
+    // block it holds; a NaN bound, none.
+    const auto low = [](double x, int top) { return x >= -1.0 ? std::min(x, top + 1.0) : x < -1.0 ? -1.0 : top + 1.0; };
+    const auto high = [](double x, int top) {
+      return x <= top + 1.0 ? std::max(x, -1.0) : x > top + 1.0 ? top + 1.0 : -1.0;
+    };
     for (const double shift : {0.0, 0.5}) {
       const Eigen::Vector3i top = shift == 0.0 ? cells_ : Eigen::Vector3i(cells_.array() - 1);
-      const Eigen::Vector3i a =
-          (((lo - origin_) / h_).array() - shift).ceil().cast<int>().max(0).matrix();
-      const Eigen::Vector3i b =
-          (((hi - origin_) / h_).array() - shift).floor().cast<int>().min(top.array()).matrix();
+      Eigen::Vector3i a, b;
+      for (int d = 0; d < 3; ++d) {
+        a[d] = std::max(0, static_cast<int>(std::ceil(low(ql[d] - shift, top[d]))));
+        b[d] = std::min(top[d], static_cast<int>(std::floor(high(qh[d] - shift, top[d]))));
+      }
       for (int k = a.z(); k <= b.z(); ++k)
         for (int j = a.y(); j <= b.y(); ++j)
           for (int i = a.x(); i <= b.x(); ++i) f(shift == 0.0 ? corner_key({i, j, k}) : centre_key({i, j, k}));

@@ -237,6 +237,44 @@ TEST(BccLattice, PointsAndBoxesFarBeyondIntsRangeOfCellsAreOutsideOrClampedToThe
   expect_near_tets_found(Eigen::Vector3d(-far, centre.y(), -far), Eigen::Vector3d(far, centre.y(), far), "a plane");
 }
 
+TEST(BccLattice, NodesInBoxesFarBeyondIntsRangeAreTheBlocksOrNone) {
+  // The nodes for_each_node_in visits, against every node's position
+  // tested against the box: boxes reaching 10³⁰⁰ m out or infinite visit the
+  // block's nodes they hold (their bounds clamped before the conversion to
+  // int, undefined beyond its range), boxes wholly outside or with a NaN
+  // bound none.
+  auto visited = [](const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+    std::vector<BccLattice::Key> out;
+    kLattice.for_each_node_in(lo, hi, [&](BccLattice::Key n) { out.push_back(n); });
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  auto held = [](const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+    std::vector<BccLattice::Key> out;
+    for (BccLattice::Key n = 0; n < kLattice.num_nodes(); ++n) {
+      const Eigen::Vector3d p = kLattice.position(n);
+      if ((p.array() >= lo.array()).all() && (p.array() <= hi.array()).all()) out.push_back(n);
+    }
+    return out;
+  };
+  const double far = 1e300, inf = std::numeric_limits<double>::infinity();
+  const Eigen::Vector3d centre = kLattice.origin() + 0.5 * kLattice.spacing() * kLattice.cells().cast<double>();
+  const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> boxes = {
+      {Eigen::Vector3d::Constant(-far), Eigen::Vector3d::Constant(far)},
+      {Eigen::Vector3d::Constant(-inf), Eigen::Vector3d::Constant(inf)},
+      {centre, Eigen::Vector3d::Constant(far)},
+      {Eigen::Vector3d(-far, centre.y(), -3e9), Eigen::Vector3d(3e9, centre.y() + 0.3, far)},
+      {Eigen::Vector3d::Constant(far), Eigen::Vector3d::Constant(inf)},
+      {Eigen::Vector3d::Constant(-inf), Eigen::Vector3d::Constant(-far)}};
+  for (const auto& [lo, hi] : boxes)
+    EXPECT_EQ(visited(lo, hi), held(lo, hi)) << lo.transpose() << " to " << hi.transpose();
+  EXPECT_GT(held(boxes[0].first, boxes[0].second).size(), 0U);
+  const Eigen::Vector3d nan = Eigen::Vector3d::Constant(std::nan(""));
+  EXPECT_TRUE(visited(nan, nan).empty());
+  EXPECT_TRUE(visited(centre, nan).empty());
+  EXPECT_TRUE(visited(nan, centre).empty());
+}
+
 TEST(BccLattice, OutsideTheBlockThereIsNoTetrahedron) {
   EXPECT_FALSE(kLattice.locate(kLattice.origin() - Eigen::Vector3d::Constant(0.01)).has_value());
   EXPECT_FALSE(kLattice.locate(Eigen::Vector3d(std::nan(""), 0, 0)).has_value());
